@@ -1,0 +1,68 @@
+// A body (an avatar) that garments are draped on: imported with assimp, in metres, +Y up.
+#pragma once
+
+#include "kiji/types.h"
+
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace kiji {
+
+enum class Axis { PosX, NegX, PosY, NegY, PosZ, NegZ };
+// "x", "-x", "+y", ... ; throws InputError listing the accepted names.
+Axis parse_axis(const std::string& name);
+std::string axis_name(Axis axis);
+
+struct BodyImportOptions {
+  // The file's up axis; when unset, the file's metadata (or +Y if it says nothing).
+  std::optional<Axis> up;
+  // Metres per file unit; when unset, the file's metadata (or 1 if it says nothing).
+  std::optional<double> scale;
+  // Scale the body uniformly to this height in metres (overrides `scale`).
+  std::optional<double> height;
+  // Put the feet on y = 0 and centre the body over the origin in x and z.
+  bool recenter = true;
+};
+
+// How the import read the file, for the user to check.
+struct BodyImportReport {
+  std::string format;            // assimp's name for the importer
+  std::string up_source;         // "file metadata", "option", "default (+Y)"
+  std::string scale_source;      // "file metadata", "option", "height option", "default (metres)"
+  Axis up = Axis::PosY;
+  double scale = 1.0;            // metres per file unit applied
+  std::size_t meshes_merged = 0;
+  std::size_t vertices_before_weld = 0;
+};
+
+class Body {
+ public:
+  // Imports every mesh of the file, welds vertices, normalises to metres and +Y up.
+  // Throws InputError for a missing or unreadable file, a format assimp cannot read, a file with no
+  // triangles, or non-finite coordinates; the message names the file and the problem.
+  static Body load(const std::string& path, const BodyImportOptions& options = {});
+  // A body from triangles already in metres, +Y up (checked like a file).
+  static Body from_triangles(std::vector<Vec3> vertices, std::vector<std::array<int, 3>> triangles,
+                             std::string name = "body");
+  // The default body: human.zae from Debian's assimp-testmodels.
+  static std::string default_path();
+
+  const std::string& name() const { return name_; }
+  const std::vector<Vec3>& vertices() const { return vertices_; }
+  const std::vector<std::array<int, 3>>& triangles() const { return triangles_; }
+  const BodyImportReport& report() const { return report_; }
+  Box3 bounds() const;
+  double height() const { return bounds().sizes().y(); }
+  // Outward unit normal of triangle t.
+  Vec3 triangle_normal(std::size_t t) const;
+
+ private:
+  std::string name_;
+  std::vector<Vec3> vertices_;
+  std::vector<std::array<int, 3>> triangles_;
+  BodyImportReport report_;
+};
+
+}  // namespace kiji

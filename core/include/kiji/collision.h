@@ -1,0 +1,42 @@
+// Collision queries against a body, with Bullet's trees as the broadphase and exact
+// point-triangle tests in Kiji's own code. Bullet stays behind this header.
+#pragma once
+
+#include "kiji/body.h"
+
+#include <memory>
+#include <vector>
+
+namespace kiji {
+
+struct BodyContact {
+  bool hit = false;
+  std::size_t triangle = 0;
+  Vec3 point;        // closest point on the body
+  Vec3 normal;       // outward unit normal of the body at that point
+  double distance = 0;  // signed distance of the query point along `normal` (negative = inside)
+};
+
+class BodyCollider {
+ public:
+  explicit BodyCollider(const Body& body);
+  ~BodyCollider();
+  BodyCollider(const BodyCollider&) = delete;
+  BodyCollider& operator=(const BodyCollider&) = delete;
+
+  const Body& body() const { return *body_; }
+
+  // Triangles whose bounding boxes overlap the box (Bullet's tree).
+  void triangles_in_box(const Box3& box, std::vector<int>& out) const;
+  // The closest body point to p within `radius`; hit = false if none is that close.
+  BodyContact closest(const Vec3& p, double radius) const;
+  // The first body triangle crossed by the segment a -> b; hit = false if none.
+  BodyContact first_crossing(const Vec3& a, const Vec3& b) const;
+
+ private:
+  const Body* body_;
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace kiji

@@ -1,0 +1,122 @@
+// A garment: a CGAL half-edge triangle mesh with the per-element properties cloth needs.
+//
+// The mesh is the truth for topology. Positions live in the mesh's points; the rest are property
+// maps: rest length and tear threshold per edge, uv per halfedge (the uv of the halfedge's target
+// vertex in the halfedge's face, so seams can carry two uvs), velocity and inverse mass per vertex
+// (0 = pinned), and a panel id per face. Vertex indices are stable across topology edits (removed
+// vertices stay as holes until compact()); halfedge, edge and face indices are not.
+#pragma once
+
+#include "kiji/material.h"
+#include "kiji/texture.h"
+#include "kiji/types.h"
+
+#include <string>
+
+namespace kiji {
+
+class Garment {
+ public:
+  Garment();
+  // Adopts a triangle mesh; rest lengths are the current edge lengths, uv the x/y of the points.
+  explicit Garment(Mesh mesh, Material material = {});
+  Garment(const Garment& other);
+  Garment& operator=(const Garment& other);
+  Garment(Garment&&) noexcept;
+  Garment& operator=(Garment&&) noexcept;
+  ~Garment();
+
+  std::string name = "garment";
+
+  Mesh& mesh() { return mesh_; }
+  const Mesh& mesh() const { return mesh_; }
+
+  const Material& material() const { return material_; }
+  // Validates, then sets the material; rest lengths are kept, tear thresholds and masses follow it.
+  void set_material(const Material& material);
+
+  Texture& texture() { return texture_; }
+  const Texture& texture() const { return texture_; }
+  // Base colour (linear RGB in [0,1]) shown where there is no texture.
+  Vec3 color{0.80, 0.25, 0.22};
+
+  // --- per-vertex ---
+  Vec3 position(Vertex v) const { return to_vec(mesh_.point(v)); }
+  void set_position(Vertex v, const Vec3& p) { mesh_.point(v) = to_point(p); }
+  Vec3& velocity(Vertex v) { return velocity_[v]; }
+  const Vec3& velocity(Vertex v) const { return velocity_[v]; }
+  double inverse_mass(Vertex v) const { return inverse_mass_[v]; }
+  bool pinned(Vertex v) const { return inverse_mass_[v] == 0.0; }
+  void set_pinned(Vertex v, bool pinned);
+  // Lumped mass: a third of the rest area of each incident face times the areal density.
+  double mass(Vertex v) const;
+  // Recomputes every unpinned inverse mass from rest areas and density.
+  void recompute_masses();
+
+  // --- per-edge ---
+  double rest_length(Edge e) const { return rest_length_[e]; }
+  void set_rest_length(Edge e, double length) { rest_length_[e] = length; }
+  // Length above which the edge tears (material tear_ratio times rest length, unless set).
+  double tear_threshold(Edge e) const { return tear_threshold_[e]; }
+  void set_tear_threshold(Edge e, double length) { tear_threshold_[e] = length; }
+  double length(Edge e) const;
+  double strain(Edge e) const { return length(e) / rest_length(e) - 1.0; }
+
+  // --- per-halfedge / per-face ---
+  Vec2 uv(Halfedge h) const { return uv_[h]; }
+  void set_uv(Halfedge h, const Vec2& uv) { uv_[h] = uv; }
+  int panel(Face f) const { return panel_[f]; }
+  void set_panel(Face f, int panel) { panel_[f] = panel; }
+  // Rest area of a face from its rest edge lengths (Heron).
+  double rest_area(Face f) const;
+
+  // Metres of flat pattern per unit of uv (uv spans [0,1] over the pattern's larger side).
+  double pattern_scale() const { return pattern_scale_; }
+  void set_pattern_scale(double metres_per_uv) { pattern_scale_ = metres_per_uv; }
+
+  // Bumped by every topology edit; the solver rebuilds its arrays when it changes.
+  std::uint64_t topology_version() const { return topology_version_; }
+  void bump_topology_version() { ++topology_version_; }
+
+  // One past the largest vertex index in use (removed vertices included): the size of flat arrays.
+  std::size_t vertex_capacity() const { return mesh_.number_of_vertices() + mesh_.number_of_removed_vertices(); }
+
+  // Sum of kinetic energy, 1/2 m v^2 over unpinned vertices.
+  double kinetic_energy() const;
+  Box3 bounds() const;
+  // Throws TopologyError if the mesh is not a valid triangle mesh without isolated or non-manifold
+  // vertices, InputError if a position or velocity is not finite.
+  void validate() const;
+  bool is_valid() const;
+  // Number of connected pieces of cloth.
+  std::size_t count_pieces() const;
+
+  // Removes the holes left by removed elements; vertex indices change; bumps the topology version.
+  void compact();
+  // Rigid or affine placement of the whole garment (positions only; rest state unchanged).
+  void transform(const Eigen::Affine3d& t);
+
+  // Property maps, for code that walks the mesh itself (tools, I/O).
+  using EdgeDoubleMap = Mesh::Property_map<Edge, double>;
+  using HalfedgeUvMap = Mesh::Property_map<Halfedge, Vec2>;
+  using VertexVecMap = Mesh::Property_map<Vertex, Vec3>;
+  using VertexDoubleMap = Mesh::Property_map<Vertex, double>;
+  using FaceIntMap = Mesh::Property_map<Face, int>;
+
+ private:
+  void attach_maps();
+
+  Mesh mesh_;
+  Material material_;
+  Texture texture_;
+  double pattern_scale_ = 1.0;
+  std::uint64_t topology_version_ = 0;
+  EdgeDoubleMap rest_length_;
+  EdgeDoubleMap tear_threshold_;
+  HalfedgeUvMap uv_;
+  VertexVecMap velocity_;
+  VertexDoubleMap inverse_mass_;
+  FaceIntMap panel_;
+};
+
+}  // namespace kiji

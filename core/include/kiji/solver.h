@@ -1,0 +1,98 @@
+// The cloth solver: steps garments forward in time, on flat arrays mirrored from the mesh.
+//
+// Two models behind one interface:
+//  - MassSpring: the paper's model exactly (its eqs. 1-3): unit masses, the spring force
+//    g_ij = k (1 - l_ij / l'_ij) d_ij on every edge, gravity and tool forces, explicit integration,
+//    with the paper's local region (only vertices within a radius of a point are computed).
+//  - Xpbd (the default): extended position-based dynamics with small substeps: stretch and bending
+//    constraints from the material, damping, pins, body collision with the cloth's thickness
+//    (continuous, so a fast hand does not push cloth through the body) and self-collision.
+// The arrays are rebuilt when the garment's topology version changes; the mesh stays the truth.
+#pragma once
+
+#include "kiji/collision.h"
+#include "kiji/garment.h"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace kiji {
+
+enum class SolverModel { Xpbd, MassSpring };
+SolverModel parse_solver_model(const std::string& name);  // "xpbd" | "mass_spring"
+std::string solver_model_name(SolverModel model);
+
+struct SolverParams {
+  SolverModel model = SolverModel::Xpbd;
+  Vec3 gravity{0.0, -9.81, 0.0};
+  int substeps = 10;             // substeps per step() call
+  int iterations = 1;            // constraint iterations per substep (Xpbd)
+  bool body_collision = true;
+  bool self_collision = true;
+  // MassSpring (the paper): spring constant k of eq. 3 and the damping gamma of eq. 1 (the paper
+  // uses 0). Masses are 1, as in eq. 2.
+  double spring_k = 100.0;
+  double spring_damping = 0.0;
+  // The paper's local region: when radius > 0, only vertices within `local_radius` of
+  // `local_center` are computed; the others are left exactly as they are.
+  double local_radius = 0.0;
+  Vec3 local_center{0.0, 0.0, 0.0};
+
+  // Throws InputError naming the parameter out of range.
+  void validate() const;
+};
+
+// A force from a tool on one vertex, in newtons, for the next step (cleared after it).
+struct ExternalForce {
+  Vertex vertex;
+  Vec3 force;
+};
+
+// What a user checks after a step: is the cloth at rest, on the body, not inside it, not torn apart.
+struct ClothMeasures {
+  double max_penetration = 0;    // deepest vertex inside the body surface, metres (0 = none)
+  double max_strain = 0;         // largest |l / rest - 1| over edges
+  double mean_strain = 0;
+  double kinetic_energy = 0;     // joules
+  std::size_t contacts = 0;      // vertices within 1.5 thickness of the body surface
+  std::size_t vertices = 0;
+};
+
+class Solver {
+ public:
+  explicit Solver(SolverParams params = {});
+  ~Solver();
+  Solver(const Solver&) = delete;
+  Solver& operator=(const Solver&) = delete;
+
+  const SolverParams& params() const { return params_; }
+  void set_params(const SolverParams& params);  // validates
+
+  // The body to collide with (kept by reference; nullptr for none).
+  void set_body(const Body* body);
+  const BodyCollider* collider() const { return collider_.get(); }
+
+  // Forces for the next step only.
+  void add_external_force(Vertex v, const Vec3& force);
+
+  // Advances the garment by dt seconds (params.substeps substeps), writing positions and velocities
+  // back to the mesh. Throws InputError for dt <= 0 or non-finite, or if the garment's state is not
+  // finite before the step.
+  void step(Garment& garment, double dt);
+
+  // Total spring force on every vertex by the paper's eq. 3 (MassSpring), indexed by vertex index.
+  std::vector<Vec3> spring_forces(const Garment& garment) const;
+
+  ClothMeasures measure(const Garment& garment) const;
+
+ private:
+  SolverParams params_;
+  const Body* body_ = nullptr;
+  std::unique_ptr<BodyCollider> collider_;
+  std::vector<ExternalForce> forces_;
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace kiji

@@ -1,0 +1,50 @@
+// Topology edits: the only ways the tools change a garment's connectivity.
+//
+// Each one either succeeds, leaving a valid manifold triangle mesh (no isolated or non-manifold
+// vertices) and bumping the topology version, or throws TopologyError / InputError and leaves the
+// garment exactly as it was. Properties travel with the elements: positions, velocities and masses
+// with vertices, uv with face corners, rest length and tear threshold with edges, panel with faces.
+#pragma once
+
+#include "kiji/garment.h"
+
+#include <vector>
+
+namespace kiji {
+
+// Splits v in two: the faces in `moved` (each incident to v) go to a new vertex at v's position;
+// the other faces keep v. Edges between a moved and a kept face are duplicated, so the cloth opens
+// there (the paper's cut). Returns the new vertex.
+Vertex split_vertex(Garment& g, Vertex v, const std::vector<Face>& moved);
+
+// Splits v along the edges (v, a) and (v, b), both incident to v: the faces of v's fan met going
+// counter-clockwise from edge (v, a) to edge (v, b) move to the new vertex. On a border vertex, a
+// may equal b for a single cut from the border.
+Vertex split_vertex_between(Garment& g, Vertex v, Vertex a, Vertex b);
+
+// Removes edge e with its one or two faces (the paper's tear). Vertices left with no face are
+// removed; a vertex whose fan falls into separate wedges is split, one vertex a wedge.
+void remove_edge(Garment& g, Edge e);
+
+// Removes many edges and their faces at once, with the same rules.
+void remove_edges(Garment& g, const std::vector<Edge>& edges);
+
+// Merges `gone` into `keep` (the paper's sew): faces of `gone` now use `keep`, which moves to the
+// midpoint; edges that then coincide become one. If the pieces had opposite orientations, the piece
+// of `gone` is flipped first. Refused (TopologyError) when the result would be non-manifold, e.g.
+// two interior vertices, or two separate pieces touching at a single vertex.
+Vertex merge_vertices(Garment& g, Vertex keep, Vertex gone);
+
+// Sews two border polylines into a seam: a[0] meets b[0], ..., the last meets the last. The
+// polylines may have different vertex counts: the shorter sides are refined by arc length first.
+// Afterwards no border is left along the seam.
+void stitch(Garment& g, const std::vector<Vertex>& a, const std::vector<Vertex>& b);
+
+// The border loops of the garment, each as its vertices in order.
+std::vector<std::vector<Vertex>> border_loops(const Garment& g);
+
+// The border vertices from `from` to `to` walking along the border (forward along border
+// halfedges). Throws InputError if they are not on one border loop.
+std::vector<Vertex> border_path(const Garment& g, Vertex from, Vertex to);
+
+}  // namespace kiji

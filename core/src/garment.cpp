@@ -1,0 +1,237 @@
+#include "kiji/garment.h"
+
+#include "kiji/error.h"
+
+#include <CGAL/Polygon_mesh_processing/manifoldness.h>
+#include <CGAL/boost/graph/helpers.h>
+
+#include <cmath>
+#include <sstream>
+
+namespace kiji {
+
+namespace PMP = CGAL::Polygon_mesh_processing;
+
+Garment::Garment() { attach_maps(); }
+
+Garment::Garment(Mesh mesh, Material material) : mesh_(std::move(mesh)) {
+  material.validate();
+  material_ = std::move(material);
+  attach_maps();
+  double min_x = 0, min_y = 0, extent = 0;
+  if (!mesh_.is_empty()) {
+    Box3 box = bounds();
+    min_x = box.min().x();
+    min_y = box.min().y();
+    extent = std::max(box.sizes().x(), box.sizes().y());
+  }
+  pattern_scale_ = extent > 0 ? extent : 1.0;
+  for (Edge e : mesh_.edges()) {
+    rest_length_[e] = length(e);
+    tear_threshold_[e] = material_.tear_ratio * rest_length_[e];
+  }
+  for (Face f : mesh_.faces()) {
+    for (Halfedge h : CGAL::halfedges_around_face(mesh_.halfedge(f), mesh_)) {
+      const Point3& p = mesh_.point(mesh_.target(h));
+      uv_[h] = Vec2((p.x() - min_x) / pattern_scale_, (p.y() - min_y) / pattern_scale_);
+    }
+  }
+  recompute_masses();
+}
+
+Garment::Garment(const Garment& other)
+    : name(other.name),
+      color(other.color),
+      mesh_(other.mesh_),
+      material_(other.material_),
+      texture_(other.texture_),
+      pattern_scale_(other.pattern_scale_),
+      topology_version_(other.topology_version_) {
+  attach_maps();
+}
+
+Garment& Garment::operator=(const Garment& other) {
+  if (this == &other) return *this;
+  name = other.name;
+  color = other.color;
+  mesh_ = other.mesh_;
+  material_ = other.material_;
+  texture_ = other.texture_;
+  pattern_scale_ = other.pattern_scale_;
+  topology_version_ = other.topology_version_ + 1;  // a different mesh: solvers must rebuild
+  attach_maps();
+  return *this;
+}
+
+Garment::Garment(Garment&& other) noexcept
+    : name(std::move(other.name)),
+      color(other.color),
+      mesh_(std::move(other.mesh_)),
+      material_(std::move(other.material_)),
+      texture_(std::move(other.texture_)),
+      pattern_scale_(other.pattern_scale_),
+      topology_version_(other.topology_version_) {
+  attach_maps();
+}
+
+Garment& Garment::operator=(Garment&& other) noexcept {
+  name = std::move(other.name);
+  color = other.color;
+  mesh_ = std::move(other.mesh_);
+  material_ = std::move(other.material_);
+  texture_ = std::move(other.texture_);
+  pattern_scale_ = other.pattern_scale_;
+  topology_version_ = std::max(topology_version_, other.topology_version_) + 1;
+  attach_maps();
+  return *this;
+}
+
+Garment::~Garment() = default;
+
+void Garment::attach_maps() {
+  rest_length_ = mesh_.add_property_map<Edge, double>("e:rest_length", 0.0).first;
+  tear_threshold_ = mesh_.add_property_map<Edge, double>("e:tear_threshold", 0.0).first;
+  uv_ = mesh_.add_property_map<Halfedge, Vec2>("h:uv", Vec2::Zero()).first;
+  velocity_ = mesh_.add_property_map<Vertex, Vec3>("v:velocity", Vec3::Zero()).first;
+  inverse_mass_ = mesh_.add_property_map<Vertex, double>("v:inverse_mass", 1.0).first;
+  panel_ = mesh_.add_property_map<Face, int>("f:panel", 0).first;
+}
+
+void Garment::set_material(const Material& material) {
+  material.validate();
+  const double old_ratio = material_.tear_ratio;
+  material_ = material;
+  for (Edge e : mesh_.edges()) {
+    // Thresholds that followed the old material follow the new one; custom ones are kept.
+    if (std::abs(tear_threshold_[e] - old_ratio * rest_length_[e]) <= 1e-12 * rest_length_[e])
+      tear_threshold_[e] = material_.tear_ratio * rest_length_[e];
+  }
+  recompute_masses();
+}
+
+double Garment::length(Edge e) const {
+  const Halfedge h = mesh_.halfedge(e);
+  return std::sqrt(CGAL::squared_distance(mesh_.point(mesh_.source(h)), mesh_.point(mesh_.target(h))));
+}
+
+double Garment::rest_area(Face f) const {
+  double l[3];
+  int i = 0;
+  for (Halfedge h : CGAL::halfedges_around_face(mesh_.halfedge(f), mesh_)) {
+    if (i < 3) l[i] = rest_length_[mesh_.edge(h)];
+    ++i;
+  }
+  if (i != 3) return 0.0;
+  const double s = 0.5 * (l[0] + l[1] + l[2]);
+  const double a2 = s * (s - l[0]) * (s - l[1]) * (s - l[2]);
+  return a2 > 0 ? std::sqrt(a2) : 0.0;
+}
+
+double Garment::mass(Vertex v) const {
+  double area = 0.0;
+  for (Face f : CGAL::faces_around_target(mesh_.halfedge(v), mesh_))
+    if (f != Mesh::null_face()) area += rest_area(f) / 3.0;
+  return area * material_.density;
+}
+
+void Garment::recompute_masses() {
+  std::vector<double> area(vertex_capacity(), 0.0);
+  for (Face f : mesh_.faces()) {
+    const double a = rest_area(f) / 3.0;
+    for (Vertex v : CGAL::vertices_around_face(mesh_.halfedge(f), mesh_)) area[v] += a;
+  }
+  for (Vertex v : mesh_.vertices()) {
+    if (inverse_mass_[v] == 0.0) continue;  // pinned stays pinned
+    const double m = area[v] * material_.density;
+    inverse_mass_[v] = m > 0 ? 1.0 / m : 1.0;
+  }
+}
+
+void Garment::set_pinned(Vertex v, bool pinned) {
+  if (pinned) {
+    inverse_mass_[v] = 0.0;
+    velocity_[v] = Vec3::Zero();
+  } else {
+    const double m = mass(v);
+    inverse_mass_[v] = m > 0 ? 1.0 / m : 1.0;
+  }
+}
+
+double Garment::kinetic_energy() const {
+  double e = 0.0;
+  for (Vertex v : mesh_.vertices()) {
+    if (inverse_mass_[v] == 0.0) continue;
+    e += 0.5 * velocity_[v].squaredNorm() / inverse_mass_[v];
+  }
+  return e;
+}
+
+Box3 Garment::bounds() const {
+  Box3 box;
+  for (Vertex v : mesh_.vertices()) box.extend(position(v));
+  return box;
+}
+
+bool Garment::is_valid() const {
+  try {
+    validate();
+    return true;
+  } catch (const Error&) {
+    return false;
+  }
+}
+
+void Garment::validate() const {
+  if (!CGAL::is_valid_polygon_mesh(mesh_))
+    throw TopologyError("garment '" + name + "' is not a valid polygon mesh");
+  if (!mesh_.is_empty() && !CGAL::is_triangle_mesh(mesh_))
+    throw TopologyError("garment '" + name + "' has faces that are not triangles");
+  for (Vertex v : mesh_.vertices()) {
+    if (mesh_.is_isolated(v))
+      throw TopologyError("garment '" + name + "' has an isolated vertex " + std::to_string(v.idx()));
+    if (PMP::is_non_manifold_vertex(v, mesh_))
+      throw TopologyError("garment '" + name + "' has a non-manifold vertex " + std::to_string(v.idx()));
+    if (!all_finite(position(v)) || !all_finite(velocity_[v]))
+      throw InputError("garment '" + name + "' has a non-finite position or velocity at vertex " +
+                       std::to_string(v.idx()));
+  }
+}
+
+std::size_t Garment::count_pieces() const {
+  std::vector<char> seen(mesh_.number_of_faces() + mesh_.number_of_removed_faces(), 0);
+  std::vector<Face> stack;
+  std::size_t pieces = 0;
+  for (Face start : mesh_.faces()) {
+    if (seen[start]) continue;
+    ++pieces;
+    seen[start] = 1;
+    stack.push_back(start);
+    while (!stack.empty()) {
+      const Face f = stack.back();
+      stack.pop_back();
+      for (Halfedge h : CGAL::halfedges_around_face(mesh_.halfedge(f), mesh_)) {
+        const Face n = mesh_.face(mesh_.opposite(h));
+        if (n != Mesh::null_face() && !seen[n]) {
+          seen[n] = 1;
+          stack.push_back(n);
+        }
+      }
+    }
+  }
+  return pieces;
+}
+
+void Garment::compact() {
+  if (!mesh_.has_garbage()) return;
+  mesh_.collect_garbage();
+  attach_maps();
+  bump_topology_version();
+}
+
+void Garment::transform(const Eigen::Affine3d& t) {
+  for (Vertex v : mesh_.vertices()) set_position(v, t * position(v));
+  const Eigen::Matrix3d r = t.linear();
+  for (Vertex v : mesh_.vertices()) velocity_[v] = r * velocity_[v];
+}
+
+}  // namespace kiji

@@ -1,0 +1,69 @@
+#include "kiji/garment.h"
+#include "kiji/error.h"
+
+#include <gtest/gtest.h>
+
+using namespace kiji;
+
+namespace {
+Garment single_triangle() {
+  Mesh m;
+  auto a = m.add_vertex(Point3(0, 0, 0)), b = m.add_vertex(Point3(1, 0, 0)), c = m.add_vertex(Point3(0, 1, 0));
+  m.add_face(a, b, c);
+  return Garment(std::move(m));
+}
+}  // namespace
+
+TEST(Garment, AdoptsMeshWithRestLengthsUvAndMasses) {
+  Garment g = single_triangle();
+  EXPECT_TRUE(g.is_valid());
+  for (Edge e : g.mesh().edges()) EXPECT_DOUBLE_EQ(g.rest_length(e), g.length(e));
+  // Area 0.5 m^2 at the default 0.15 kg/m^2: a third each.
+  for (Vertex v : g.mesh().vertices()) EXPECT_NEAR(g.mass(v), 0.5 * 0.15 / 3.0, 1e-12);
+  for (Vertex v : g.mesh().vertices()) EXPECT_NEAR(1.0 / g.inverse_mass(v), 0.5 * 0.15 / 3.0, 1e-12);
+}
+
+TEST(Garment, PinAndUnpinRestoresMass) {
+  Garment g = single_triangle();
+  Vertex v = *g.mesh().vertices().begin();
+  const double m = g.mass(v);
+  g.set_pinned(v, true);
+  EXPECT_TRUE(g.pinned(v));
+  EXPECT_EQ(g.inverse_mass(v), 0.0);
+  g.recompute_masses();
+  EXPECT_TRUE(g.pinned(v)) << "recomputing masses must keep pins";
+  g.set_pinned(v, false);
+  EXPECT_NEAR(1.0 / g.inverse_mass(v), m, 1e-12);
+}
+
+TEST(Garment, CopyIsIndependent) {
+  Garment g = single_triangle();
+  Garment c = g;
+  Vertex v = *g.mesh().vertices().begin();
+  c.velocity(v) = Vec3(1, 2, 3);
+  c.set_position(v, Vec3(5, 5, 5));
+  EXPECT_EQ(g.velocity(v), Vec3::Zero());
+  EXPECT_EQ(g.position(v), Vec3(0, 0, 0));
+  EXPECT_EQ(c.velocity(v), Vec3(1, 2, 3));
+}
+
+TEST(Garment, ValidateRejectsNaN) {
+  Garment g = single_triangle();
+  g.set_position(*g.mesh().vertices().begin(), Vec3(std::nan(""), 0, 0));
+  EXPECT_THROW(g.validate(), InputError);
+}
+
+TEST(Garment, MaterialOutOfRangeIsRefusedAndKeepsTheOldOne) {
+  Garment g = single_triangle();
+  Material bad;
+  bad.density = -1;
+  try {
+    g.set_material(bad);
+    FAIL() << "a negative density was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("density"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(g.material().density, Material{}.density);
+  EXPECT_THROW(Material::preset("velvet"), InputError);
+  EXPECT_EQ(Material::preset("rubber").name, "rubber");
+}

@@ -652,19 +652,27 @@ std::vector<Vertex> border_path(const Garment& g, Vertex from, Vertex to) {
   require_vertex(g, from, "path start");
   require_vertex(g, to, "path end");
   const Mesh& m = g.mesh();
-  for (Halfedge h : CGAL::halfedges_around_source(m.halfedge(from), m)) {
+  std::vector<Vertex> best;
+  for (Halfedge h : CGAL::halfedges_around_source(from, m)) {
     if (!m.is_border(h)) continue;
-    std::vector<Vertex> path{from};
-    Halfedge c = h;
-    for (std::size_t guard = 0; guard < m.number_of_halfedges(); ++guard) {
-      path.push_back(m.target(c));
-      if (m.target(c) == to) return path;
-      c = m.next(c);
-      if (c == h) break;
+    // Forward along the loop, and backward; the shorter way wins.
+    for (int backward = 0; backward < 2; ++backward) {
+      std::vector<Vertex> path{from};
+      Halfedge c = backward ? m.prev(h) : h;
+      for (std::size_t guard = 0; guard < m.number_of_halfedges(); ++guard) {
+        const Vertex next = backward ? m.source(c) : m.target(c);
+        path.push_back(next);
+        if (next == to) break;
+        c = backward ? m.prev(c) : m.next(c);
+        if (next == from) break;
+      }
+      if (path.back() == to && (best.empty() || path.size() < best.size())) best = path;
     }
   }
-  throw InputError("border_path: vertices " + std::to_string(from.idx()) + " and " + std::to_string(to.idx()) +
-                   " are not on one border loop");
+  if (best.empty() || from == to)
+    throw InputError("border_path: vertices " + std::to_string(from.idx()) + " and " + std::to_string(to.idx()) +
+                     " are not two vertices of one border loop");
+  return best;
 }
 
 }  // namespace kiji

@@ -62,6 +62,45 @@ const char* kZupCentimetreDae = R"(<?xml version="1.0" encoding="utf-8"?>
 </COLLADA>
 )";
 
+// The same tetrahedron, 10 x 10 wide and 50 tall along +Z, in inches (2.54 cm), as ASCII FBX.
+const char* kZupInchFbx = R"(; FBX 7.4.0 project file
+FBXHeaderExtension:  {
+	FBXHeaderVersion: 1003
+	FBXVersion: 7400
+	Creator: "Kiji test"
+}
+GlobalSettings:  {
+	Version: 1000
+	Properties70:  {
+		P: "UpAxis", "int", "Integer", "",2
+		P: "UpAxisSign", "int", "Integer", "",1
+		P: "FrontAxis", "int", "Integer", "",1
+		P: "FrontAxisSign", "int", "Integer", "",-1
+		P: "CoordAxis", "int", "Integer", "",0
+		P: "CoordAxisSign", "int", "Integer", "",1
+		P: "UnitScaleFactor", "double", "Number", "",2.54
+	}
+}
+Objects:  {
+	Geometry: 1000, "Geometry::tet", "Mesh" {
+		Vertices: *12 {
+			a: 0,0,0,10,0,0,0,10,0,0,0,50
+		}
+		PolygonVertexIndex: *12 {
+			a: 0,2,-2,0,1,-4,1,2,-4,2,0,-4
+		}
+		GeometryVersion: 124
+	}
+	Model: 2000, "Model::tet", "Mesh" {
+		Version: 232
+	}
+}
+Connections:  {
+	C: "OO",2000,0
+	C: "OO",1000,2000
+}
+)";
+
 }  // namespace
 
 TEST(BodyImport, DefaultPathIsHumanZae) {
@@ -186,6 +225,18 @@ TEST(BodyImport, ColladaZUpCentimetresFromMetadata) {
   EXPECT_NEAR(b.bounds().sizes().x(), 1.0, 1e-6);
   EXPECT_NEAR(b.bounds().sizes().z(), 1.0, 1e-6);
   EXPECT_GT(signed_volume(b), 0) << "a rotation must keep the triangles facing out";
+}
+
+TEST(BodyImport, FbxZUpInchesFromMetadata) {
+  // assimp reads FBX's UpAxis and UnitScaleFactor into metadata without applying them.
+  Body b = Body::load(tmp_file("zup_inch.fbx", kZupInchFbx));
+  EXPECT_EQ(b.report().up, Axis::PosZ);
+  EXPECT_EQ(b.report().up_source, "file metadata");
+  EXPECT_NEAR(b.report().scale, 0.0254, 1e-7);
+  EXPECT_NEAR(b.height(), 1.27, 1e-6);
+  EXPECT_NEAR(b.bounds().sizes().x(), 0.254, 1e-6);
+  EXPECT_NEAR(b.bounds().sizes().z(), 0.254, 1e-6);
+  EXPECT_GT(signed_volume(b), 0);
 }
 
 TEST(BodyImport, OptionsOverrideColladaMetadata) {

@@ -7,7 +7,7 @@ cd "$(dirname "$0")/.."
 packages=(
   build-essential cmake ninja-build pkg-config git
   libeigen3-dev libcgal-dev libbullet-dev libassimp-dev assimp-testmodels
-  libpng-dev zlib1g-dev libgtest-dev
+  libpng-dev zlib1g-dev libgtest-dev nlohmann-json3-dev
 )
 
 missing=()

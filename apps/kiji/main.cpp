@@ -1,7 +1,51 @@
-// kiji: the command line.
+// kiji: the command line. Dispatches to a subcommand; every error is a message and an exit code.
+#include "args.h"
+#include "commands.h"
+#include "kiji/error.h"
+#include "kiji/version.h"
+
 #include <cstdio>
+#include <exception>
+#include <string>
+#include <vector>
+
+namespace {
+
+const char* kUsage =
+    "usage: kiji COMMAND [options]\n"
+    "\n"
+    "commands:\n"
+    "  drape     drop a flat garment on a body, let it settle, write the result\n"
+    "  version   print Kiji's version\n"
+    "\n"
+    "'kiji COMMAND --help' describes a command's options.\n";
+
+}  // namespace
 
 int main(int argc, char** argv) {
-  std::fprintf(stderr, "usage: kiji drape [options]\n");
-  return 2;
+  std::vector<std::string> args(argv + 1, argv + argc);
+  if (args.empty() || args[0] == "--help" || args[0] == "-h" || args[0] == "help") {
+    std::fputs(kUsage, args.empty() ? stderr : stdout);
+    return args.empty() ? 2 : 0;
+  }
+  const std::string command = args[0];
+  args.erase(args.begin());
+  try {
+    if (command == "drape") return kiji::cli::drape_command(args);
+    if (command == "version" || command == "--version") {
+      std::printf("kiji %s\n", kiji::version());
+      return 0;
+    }
+    std::fprintf(stderr, "kiji: unknown command '%s'\n\n%s", command.c_str(), kUsage);
+    return 2;
+  } catch (const kiji::cli::UsageError& e) {
+    std::fprintf(stderr, "kiji %s: %s\n(see 'kiji %s --help')\n", command.c_str(), e.what(), command.c_str());
+    return 2;
+  } catch (const kiji::Error& e) {
+    std::fprintf(stderr, "kiji %s: %s\n", command.c_str(), e.what());
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "kiji %s: unexpected error: %s\n", command.c_str(), e.what());
+    return 1;
+  }
 }

@@ -5,6 +5,7 @@
 #include <CGAL/Polygon_mesh_processing/manifoldness.h>
 #include <CGAL/boost/graph/helpers.h>
 
+#include <atomic>
 #include <cmath>
 #include <sstream>
 
@@ -12,9 +13,18 @@ namespace kiji {
 
 namespace PMP = CGAL::Polygon_mesh_processing;
 
-Garment::Garment() { attach_maps(); }
+namespace {
+std::uint64_t fresh_version() {
+  static std::atomic<std::uint64_t> next{1};
+  return next++;
+}
+}  // namespace
 
-Garment::Garment(Mesh mesh, Material material) : mesh_(std::move(mesh)) {
+void Garment::bump_topology_version() { topology_version_ = fresh_version(); }
+
+Garment::Garment() : topology_version_(fresh_version()) { attach_maps(); }
+
+Garment::Garment(Mesh mesh, Material material) : mesh_(std::move(mesh)), topology_version_(fresh_version()) {
   material.validate();
   material_ = std::move(material);
   attach_maps();
@@ -46,7 +56,7 @@ Garment::Garment(const Garment& other)
       material_(other.material_),
       texture_(other.texture_),
       pattern_scale_(other.pattern_scale_),
-      topology_version_(other.topology_version_) {
+      topology_version_(fresh_version()) {
   attach_maps();
 }
 
@@ -58,7 +68,7 @@ Garment& Garment::operator=(const Garment& other) {
   material_ = other.material_;
   texture_ = other.texture_;
   pattern_scale_ = other.pattern_scale_;
-  topology_version_ = other.topology_version_ + 1;  // a different mesh: solvers must rebuild
+  topology_version_ = fresh_version();  // a different mesh: solvers must rebuild
   attach_maps();
   return *this;
 }
@@ -70,7 +80,7 @@ Garment::Garment(Garment&& other) noexcept
       material_(std::move(other.material_)),
       texture_(std::move(other.texture_)),
       pattern_scale_(other.pattern_scale_),
-      topology_version_(other.topology_version_) {
+      topology_version_(fresh_version()) {
   attach_maps();
 }
 
@@ -81,7 +91,7 @@ Garment& Garment::operator=(Garment&& other) noexcept {
   material_ = std::move(other.material_);
   texture_ = std::move(other.texture_);
   pattern_scale_ = other.pattern_scale_;
-  topology_version_ = std::max(topology_version_, other.topology_version_) + 1;
+  topology_version_ = fresh_version();
   attach_maps();
   return *this;
 }

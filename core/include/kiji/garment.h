@@ -74,9 +74,10 @@ class Garment {
   double pattern_scale() const { return pattern_scale_; }
   void set_pattern_scale(double metres_per_uv) { pattern_scale_ = metres_per_uv; }
 
-  // Bumped by every topology edit; the solver rebuilds its arrays when it changes.
+  // Changed by every topology edit, copy and assignment, to a value no other garment has had: a
+  // solver rebuilds its arrays when it differs from the one it saw.
   std::uint64_t topology_version() const { return topology_version_; }
-  void bump_topology_version() { ++topology_version_; }
+  void bump_topology_version();
 
   // One past the largest vertex index in use (removed vertices included): the size of flat arrays.
   std::size_t vertex_capacity() const { return mesh_.number_of_vertices() + mesh_.number_of_removed_vertices(); }
@@ -114,7 +115,7 @@ class Garment {
   Material material_;
   Texture texture_;
   double pattern_scale_ = 1.0;
-  std::uint64_t topology_version_ = 0;
+  std::uint64_t topology_version_;
   EdgeDoubleMap rest_length_;
   EdgeDoubleMap tear_threshold_;
   HalfedgeUvMap uv_;

@@ -1,0 +1,11 @@
+// The kiji command line's subcommands. Each returns the process exit code.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace kiji::cli {
+
+int drape_command(const std::vector<std::string>& args);
+
+}  // namespace kiji::cli

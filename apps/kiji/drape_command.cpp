@@ -1,0 +1,164 @@
+// kiji drape: a flat garment dropped on a body, settled, written to a file with a picture.
+#include "args.h"
+#include "commands.h"
+#include "kiji/body.h"
+#include "kiji/drape.h"
+#include "kiji/error.h"
+#include "kiji/io.h"
+#include "kiji/pattern.h"
+#include "kiji/render.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+#include <string>
+
+namespace kiji::cli {
+
+namespace {
+
+const char* kDrapeHelp =
+    "usage: kiji drape [options]\n"
+    "\n"
+    "Places a flat garment above the body's shoulders, lets it fall and settle under gravity,\n"
+    "writes the result and a picture, and prints a summary.\n"
+    "\n"
+    "options:\n"
+    "  --body FILE              body mesh, any format assimp reads (default: human.zae)\n"
+    "  --up x|y|z|-x|-y|-z      the body file's up axis, if its metadata is missing or wrong\n"
+    "  --scale S                metres per unit of the body file, if its metadata is missing or wrong\n"
+    "  --height METRES          scale the body to this height\n"
+    "  --garment rect:W,H,S     a W x H metre rectangle with vertices S metres apart\n"
+    "                           (default rect:1.4,1.0,0.01: 14,241 vertices)\n"
+    "  --material NAME          cotton, silk, denim, rubber or tissue (default cotton)\n"
+    "  --model xpbd|mass_spring the solver model (default xpbd; mass_spring is the 2006 paper's)\n"
+    "  --seconds S              simulated time (default 3)\n"
+    "  --out FILE               garment file, .glb or .obj (default out/drape.glb)\n"
+    "  --picture FILE           a PNG of the result (default: the --out path with .png)\n"
+    "  --no-picture             do not write a picture\n"
+    "  --json                   print the summary as one JSON object\n";
+
+std::string json_string(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    switch (c) {
+      case '"': out += "\\\""; break;
+      case '\\': out += "\\\\"; break;
+      case '\n': out += "\\n"; break;
+      case '\t': out += "\\t"; break;
+      default:
+        if (static_cast<unsigned char>(c) < 0x20) {
+          char buf[8];
+          std::snprintf(buf, sizeof buf, "\\u%04x", c);
+          out += buf;
+        } else {
+          out += c;
+        }
+    }
+  }
+  return out + "\"";
+}
+
+std::string json_number(double x) {
+  if (!std::isfinite(x)) return "null";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.9g", x);
+  return buf;
+}
+
+void make_parent(const std::string& path) {
+  const auto parent = std::filesystem::path(path).parent_path();
+  if (parent.empty()) return;
+  std::error_code ec;
+  std::filesystem::create_directories(parent, ec);
+  if (ec) throw InputError("cannot create the folder '" + parent.string() + "': " + ec.message());
+}
+
+}  // namespace
+
+int drape_command(const std::vector<std::string>& argv) {
+  const Args args(argv,
+                  {"--body", "--up", "--scale", "--height", "--garment", "--material", "--model", "--seconds",
+                   "--out", "--picture"},
+                  {"--json", "--no-picture", "--help", "-h"});
+  if (args.has("--help") || args.has("-h")) {
+    std::fputs(kDrapeHelp, stdout);
+    return 0;
+  }
+  BodyImportOptions import;
+  if (args.has("--up")) import.up = parse_axis(args.get("--up", "y"));
+  if (args.has("--scale")) import.scale = args.number("--scale", 1.0);
+  if (args.has("--height")) import.height = args.number("--height", 1.0);
+  const std::string body_path = args.get("--body", Body::default_path());
+  const RectSpec spec = RectSpec::parse(args.get("--garment", "rect:1.4,1.0,0.01"));
+  const Material material = Material::preset(args.get("--material", "cotton"));
+  DrapeOptions options;
+  options.seconds = args.number("--seconds", 3.0);
+  options.solver.model = parse_solver_model(args.get("--model", "xpbd"));
+  options.validate();
+  const std::string out = args.get("--out", "out/drape.glb");
+  const std::string ext = std::filesystem::path(out).extension().string();
+  if (ext != ".glb" && ext != ".obj")
+    throw InputError("--out '" + out + "' must end in .glb or .obj");
+  std::string picture;
+  if (!args.has("--no-picture"))
+    picture = args.get("--picture", std::filesystem::path(out).replace_extension(".png").string());
+
+  const Body body = Body::load(body_path, import);
+  Garment garment = make_rectangle_spaced(spec.width, spec.height, spec.spacing, material);
+  garment.name = "drape";
+  place_over_body(garment, body);
+  const DrapeResult result = drape(garment, body, options);
+
+  make_parent(out);
+  export_garment(garment, out);
+  if (!picture.empty()) {
+    make_parent(picture);
+    Box3 frame = body.bounds();
+    frame.extend(garment.bounds());
+    const Image image = render({&garment}, &body, Camera::framing(frame), 1024, 768);
+    write_png(image, picture);
+  }
+
+  const ClothMeasures& m = result.measures;
+  if (args.has("--json")) {
+    std::ostringstream j;
+    j << "{\"body\": " << json_string(body_path) << ", \"body_height\": " << json_number(body.height())
+      << ", \"body_triangles\": " << body.triangles().size()
+      << ", \"model\": " << json_string(solver_model_name(options.solver.model))
+      << ", \"material\": " << json_string(material.name)
+      << ", \"vertices\": " << garment.mesh().number_of_vertices()
+      << ", \"faces\": " << garment.mesh().number_of_faces()
+      << ", \"seconds_simulated\": " << json_number(result.seconds_simulated)
+      << ", \"steps\": " << result.steps
+      << ", \"wall_seconds\": " << json_number(result.wall_seconds)
+      << ", \"ms_per_step\": " << json_number(1000.0 * result.wall_seconds / std::max<std::size_t>(1, result.steps))
+      << ", \"max_penetration\": " << json_number(m.max_penetration)
+      << ", \"thickness\": " << json_number(material.thickness)
+      << ", \"max_strain\": " << json_number(m.max_strain)
+      << ", \"mean_strain\": " << json_number(m.mean_strain)
+      << ", \"kinetic_energy\": " << json_number(m.kinetic_energy)
+      << ", \"contacts\": " << m.contacts
+      << ", \"out\": " << json_string(out)
+      << ", \"picture\": " << (picture.empty() ? std::string("null") : json_string(picture)) << "}\n";
+    std::fputs(j.str().c_str(), stdout);
+  } else {
+    std::printf("draped %zu vertices / %zu faces of %s on %s (%.2f m tall)\n",
+                garment.mesh().number_of_vertices(), garment.mesh().number_of_faces(), material.name.c_str(),
+                body_path.c_str(), body.height());
+    std::printf("  simulated      %.2f s in %zu steps (%s)\n", result.seconds_simulated, result.steps,
+                solver_model_name(options.solver.model).c_str());
+    std::printf("  wall time      %.2f s (%.2f ms a step)\n", result.wall_seconds,
+                1000.0 * result.wall_seconds / std::max<std::size_t>(1, result.steps));
+    std::printf("  penetration    %.2f mm at most (cloth thickness %.1f mm)\n", 1000 * m.max_penetration,
+                1000 * material.thickness);
+    std::printf("  edge strain    %.2f %% at most, %.2f %% on average\n", 100 * m.max_strain, 100 * m.mean_strain);
+    std::printf("  kinetic energy %.3g J at the end\n", m.kinetic_energy);
+    std::printf("  contacts       %zu vertices touch the body\n", m.contacts);
+    std::printf("wrote %s%s%s\n", out.c_str(), picture.empty() ? "" : " and ", picture.c_str());
+  }
+  return 0;
+}
+
+}  // namespace kiji::cli

@@ -1,0 +1,39 @@
+// Draping: a flat garment placed over a body, let fall under gravity and settle. The first thing a
+// user does with Kiji, and the start of every design session.
+#pragma once
+
+#include "kiji/body.h"
+#include "kiji/garment.h"
+#include "kiji/solver.h"
+
+#include <functional>
+
+namespace kiji {
+
+// Lays a flat pattern (in the z = 0 plane) horizontally over the body: its x along the body's
+// shoulders (x), its y from front to back (-z), centred over the body, `clearance` metres above the
+// highest point of the body under it.
+void place_over_body(Garment& garment, const Body& body, double clearance = 0.02);
+
+struct DrapeOptions {
+  double seconds = 3.0;          // simulated time
+  double frame_rate = 60.0;      // steps per simulated second
+  SolverParams solver;
+  void validate() const;
+};
+
+struct DrapeResult {
+  double seconds_simulated = 0;
+  double wall_seconds = 0;
+  std::size_t steps = 0;
+  ClothMeasures measures;        // at the end
+};
+
+// Called after each step with the fraction done; return false to stop early.
+using DrapeProgress = std::function<bool(double fraction)>;
+
+// Simulates the garment on the body for options.seconds. Throws InputError for bad options.
+DrapeResult drape(Garment& garment, const Body& body, const DrapeOptions& options = {},
+                  const DrapeProgress& progress = {});
+
+}  // namespace kiji

@@ -1,0 +1,80 @@
+// The tool interface: what a fabric tool (pinch, tear, cut, sew, paint, or your own) implements.
+//
+// A tool sees only device-agnostic ToolEvents and answers with Feedback. Interactive use calls
+// begin / update / end / cancel as the user moves; scripts, tests, replay and peers call run(),
+// which feeds a recorded stroke through the very same calls. Parameters are declared once in
+// info() and reach the command line, Python and the app's panels from there.
+//
+// A plugin is a MODULE library that defines a Tool subclass and names it with KIJI_TOOL_PLUGIN;
+// `kiji_add_tool()` in CMake builds it and writes the JSON metadata the host reads before loading.
+#pragma once
+
+#include "kiji/params.h"
+#include "kiji/tool_event.h"
+#include "kiji/version.h"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+// The interface id and its version: a host loads only plugins of the version it implements.
+#define KIJI_TOOL_INTERFACE "org.kiji.Tool/1"
+
+namespace kiji {
+
+class Session;
+
+struct ToolInfo {
+  std::string id;           // the verb: "cut" -> plugins/cut/ -> session.cut(...)
+  std::string label;        // "Cut"
+  std::string description;  // one or two sentences for menus, help() and docs
+  std::vector<ParamSpec> parameters;
+};
+
+class Tool {
+ public:
+  virtual ~Tool() = default;
+
+  virtual ToolInfo info() const = 0;
+
+  // The stroke starts: the user pressed the button (phase Begin). `params` are checked values
+  // for every declared parameter, fixed for the whole stroke.
+  virtual Feedback begin(Session& session, const ParamSet& params, const ToolEvent& event) = 0;
+  // The pointer moved with the button held (phase Move).
+  virtual Feedback update(Session& session, const ToolEvent& event) = 0;
+  // The button was released (phase End): finish the edit.
+  virtual void end(Session& session, const ToolEvent& event) = 0;
+  // The stroke was abandoned (phase Cancel): leave nothing half-done. The session restores the
+  // garments as they were before the stroke; release any state the tool holds.
+  virtual void cancel(Session& session) = 0;
+
+  // The force on the user's hand for a pointer position between solver steps, for the 1 kHz haptic
+  // loop. It must be quick and must not change the session. The default is no force.
+  virtual Feedback haptic_force(const Session& session, const ToolEvent& event) const { return {}; }
+
+  // Feeds a recorded stroke through begin / update / end / cancel, through the session (which
+  // advances the simulation to each event's time, fills in the surface hit and journals it).
+  void run(Session& session, const ParamSet& params, const Stroke& stroke);
+};
+
+// The entry point a plugin library exports (see KIJI_TOOL_PLUGIN).
+struct ToolPluginEntry {
+  const char* interface_id;  // KIJI_TOOL_INTERFACE the plugin was built against
+  const char* abi_tag;       // KIJI_ABI_TAG the plugin was built with
+  Tool* (*create)();
+  void (*destroy)(Tool*);
+};
+
+}  // namespace kiji
+
+#define KIJI_TOOL_PLUGIN_SYMBOL "kiji_tool_plugin_v1"
+
+// Exports the factory of ToolClass from a plugin library.
+#define KIJI_TOOL_PLUGIN(ToolClass)                                                            \
+  extern "C" __attribute__((visibility("default"))) const ::kiji::ToolPluginEntry*            \
+  kiji_tool_plugin_v1() {                                                                     \
+    static const ::kiji::ToolPluginEntry entry{                                               \
+        KIJI_TOOL_INTERFACE, KIJI_ABI_TAG, []() -> ::kiji::Tool* { return new ToolClass(); }, \
+        [](::kiji::Tool* tool) { delete tool; }};                                             \
+    return &entry;                                                                            \
+  }

@@ -1,0 +1,92 @@
+// The kiji command line as a user runs it: exit codes, messages, files written.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+namespace {
+
+struct Run {
+  int code = -1;
+  std::string out;  // stdout and stderr together
+};
+
+Run run(const std::string& args) {
+  Run r;
+  const std::string cmd = std::string(KIJI_CLI) + " " + args + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf;
+  std::size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
+  const int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+std::string tmp(const std::string& name) { return std::string(KIJI_TEST_TMP) + "/cli_" + name; }
+
+void write(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
+
+}  // namespace
+
+TEST(Cli, HelpAndUnknownCommand) {
+  EXPECT_EQ(run("--help").code, 0);
+  Run r = run("drape --help");
+  EXPECT_EQ(r.code, 0);
+  EXPECT_NE(r.out.find("--garment rect:W,H,S"), std::string::npos);
+  r = run("frobnicate");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("unknown command 'frobnicate'"), std::string::npos);
+  r = run("drape --colour red");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("unknown option '--colour'"), std::string::npos);
+}
+
+TEST(Cli, BadInputIsAClearErrorAndANonZeroExit) {
+  struct Case {
+    std::string args, expect;
+  };
+  write(tmp("nan.obj"), "v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n");
+  write(tmp("lines.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2\nl 2 3\n");
+  write(tmp("garbage.xyzzy"), "this is not a mesh in any format\n");
+  const Case cases[] = {
+      {"drape --body /nonexistent/body.obj", "/nonexistent/body.obj"},
+      {"drape --body " + tmp("garbage.xyzzy"), "garbage.xyzzy"},
+      {"drape --body " + tmp("lines.obj"), "no triangles"},
+      {"drape --body " + tmp("nan.obj"), "finite"},
+      {"drape --garment rect:0,1,0.1", "width"},
+      {"drape --garment rect:1,1,-0.1", "spacing"},
+      {"drape --garment rect:1,1,2", "larger than the garment"},
+      {"drape --garment square:1", "rect:WIDTH,HEIGHT,SPACING"},
+      {"drape --seconds -1", "seconds"},
+      {"drape --seconds abc", "expects a number"},
+      {"drape --up w", "unknown axis"},
+      {"drape --material velvet", "unknown material"},
+      {"drape --model fem", "mass_spring"},
+      {"drape --height -2", "height"},
+      {"drape --out " + tmp("x.stl"), ".glb or .obj"},
+  };
+  for (const Case& c : cases) {
+    Run r = run(c.args);
+    EXPECT_NE(r.code, 0) << c.args;
+    EXPECT_NE(r.code, -1) << c.args << " crashed";
+    EXPECT_NE(r.out.find(c.expect), std::string::npos) << c.args << " said: " << r.out;
+  }
+}
+
+TEST(Cli, DrapePrintsJsonAndWritesTheGarmentAndAPicture) {
+  const std::string out = tmp("small.glb"), png = tmp("small.png");
+  std::filesystem::remove(out);
+  std::filesystem::remove(png);
+  Run r = run("drape --garment rect:0.8,0.6,0.04 --seconds 0.5 --json --out " + out + " --picture " + png);
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const char* field : {"\"vertices\": 336", "\"faces\":", "\"seconds_simulated\": 0.5", "\"wall_seconds\":",
+                            "\"max_penetration\":", "\"max_strain\":", "\"kinetic_energy\":", "\"contacts\":"})
+    EXPECT_NE(r.out.find(field), std::string::npos) << field << " missing from " << r.out;
+  EXPECT_GT(std::filesystem::file_size(out), 1000u);
+  EXPECT_GT(std::filesystem::file_size(png), 1000u);
+}

@@ -270,3 +270,49 @@ TEST(BorderPath, WalksAlongTheBorder) {
   EXPECT_EQ(border_path(g, at(g, 1, 0), at(g, 0, 0)).size(), 5u);
   EXPECT_THROW(border_path(g, at(g, 0.5, 0.5), at(g, 1, 0)), InputError);
 }
+
+TEST(CutAlong, BorderToBorderSeparatesThePiecesKeepingEveryFace) {
+  Garment g = make_rectangle(1.0, 1.0, 11, 11);
+  const auto faces = g.mesh().number_of_faces();
+  const Garment before = g;
+  const auto path = edge_path(g, at(g, 0.0, 0.5), at(g, 1.0, 0.5));
+  ASSERT_EQ(path.size(), 11u);
+  const auto created = cut_along(g, path);
+  EXPECT_EQ(created.size(), 11u);
+  EXPECT_TRUE(g.is_valid());
+  EXPECT_EQ(g.count_pieces(), 2u);
+  EXPECT_EQ(g.mesh().number_of_faces(), faces);
+  EXPECT_EQ(g.mesh().number_of_vertices(), 121u + 11u);
+  expect_same_uvs(before, g);
+  // Each piece is a rectangle: two border loops of 40 edges... 2*(10+5) = 30 each.
+  auto loops = border_loops(g);
+  ASSERT_EQ(loops.size(), 2u);
+  EXPECT_EQ(loops[0].size(), 30u);
+  EXPECT_EQ(loops[1].size(), 30u);
+}
+
+TEST(CutAlong, IntoTheClothEndsInASlit) {
+  Garment g = make_rectangle(1.0, 1.0, 11, 11);
+  cut_along(g, edge_path(g, at(g, 0.0, 0.5), at(g, 0.5, 0.5)));
+  EXPECT_TRUE(g.is_valid());
+  EXPECT_EQ(g.count_pieces(), 1u);
+  auto loops = border_loops(g);
+  ASSERT_EQ(loops.size(), 1u);
+  EXPECT_EQ(loops[0].size(), 40u + 2u * 5u);  // the border runs in along the slit and back
+}
+
+TEST(CutAlong, InsideTheClothOpensAHole) {
+  Garment g = make_rectangle(1.0, 1.0, 11, 11);
+  const auto created = cut_along(g, edge_path(g, at(g, 0.3, 0.5), at(g, 0.7, 0.5)));
+  EXPECT_EQ(created.size(), 3u);  // the inner vertices; the ends stay whole
+  EXPECT_TRUE(g.is_valid());
+  EXPECT_EQ(g.count_pieces(), 1u);
+  EXPECT_EQ(border_loops(g).size(), 2u);
+}
+
+TEST(CutAlong, RefusesAPathThatIsNotAlongEdges) {
+  Garment g = make_rectangle(1.0, 1.0, 11, 11);
+  EXPECT_THROW(cut_along(g, {at(g, 0, 0), at(g, 1, 1)}), InputError);
+  EXPECT_THROW(cut_along(g, {at(g, 0, 0)}), InputError);
+  EXPECT_EQ(g.count_pieces(), 1u);
+}

@@ -12,7 +12,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
+#include <queue>
 #include <set>
 #include <sstream>
 #include <unordered_map>
@@ -428,6 +430,125 @@ Vertex split_vertex_between(Garment& g, Vertex v, Vertex a, Vertex b) {
     if (m.target(h) == b && a != b) break;
   }
   return split_vertex(g, v, faces);
+}
+
+namespace {
+
+Index path_source(const std::vector<std::pair<Vertex, std::set<Face>>>& moves, std::size_t k) {
+  return moves[k].first.idx();
+}
+
+// Faces met turning counter-clockwise (or clockwise) around v, from edge (v, from) until edge
+// (v, stop) or the border.
+std::vector<Face> sweep(const Mesh& m, Vertex v, Vertex from, Vertex stop, bool clockwise) {
+  std::vector<Face> faces;
+  auto [h, found] = CGAL::halfedge(v, from, m);
+  if (!found) return faces;
+  for (std::size_t guard = 0; guard <= m.degree(v) + 1; ++guard) {
+    const Face f = clockwise ? m.face(m.opposite(h)) : m.face(h);
+    if (f == Mesh::null_face()) break;
+    faces.push_back(f);
+    h = clockwise ? m.next(m.opposite(h)) : m.opposite(m.prev(h));
+    if (m.target(h) == stop || m.target(h) == from) break;
+  }
+  return faces;
+}
+
+}  // namespace
+
+std::vector<Vertex> cut_along(Garment& g, const std::vector<Vertex>& path) {
+  const Mesh& m = g.mesh();
+  if (path.size() < 2) throw InputError("cut_along: a cut needs a path of at least 2 vertices");
+  std::set<Vertex> seen;
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    require_vertex(g, path[i], "cut path");
+    if (!seen.insert(path[i]).second)
+      throw InputError("cut_along: vertex " + std::to_string(path[i].idx()) + " appears twice in the path");
+    if (i + 1 < path.size() && !CGAL::halfedge(path[i], path[i + 1], m).second)
+      throw InputError("cut_along: vertices " + std::to_string(path[i].idx()) + " and " +
+                       std::to_string(path[i + 1].idx()) + " are not joined by an edge");
+  }
+  // The faces on the left of the path (walking along it) move to new vertices.
+  std::vector<std::pair<Vertex, std::set<Face>>> moves;
+  const std::size_t n = path.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vertex v = path[i];
+    std::set<Face> left;
+    if (i > 0 && i + 1 < n) {
+      for (Face f : sweep(m, v, path[i + 1], path[i - 1], false)) left.insert(f);
+      for (Face f : sweep(m, v, path[i - 1], path[i + 1], true)) left.insert(f);
+    } else if (m.is_border(v)) {
+      const bool start = i == 0;
+      for (Face f : sweep(m, v, start ? path[1] : path[n - 2], Mesh::null_vertex(), !start)) left.insert(f);
+    }
+    std::size_t degree_faces = 0;
+    for (Face f : CGAL::faces_around_target(m.halfedge(v), m)) degree_faces += f != Mesh::null_face();
+    if (!left.empty() && left.size() < degree_faces) moves.emplace_back(v, std::move(left));
+  }
+  if (moves.empty()) return {};
+
+  Soup s = to_soup(g);
+  std::vector<Index> soup_of_face(m.number_of_faces() + m.number_of_removed_faces(), Index(-1));
+  {
+    Index i = 0;
+    for (Face f : m.faces()) soup_of_face[f.idx()] = i++;
+  }
+  std::vector<Vertex> created;
+  const std::size_t first_new = s.vertices.size();
+  for (const auto& [v, faces] : moves) {
+    const Index nv = s.add_vertex(s.vertices[v.idx()]);
+    created.push_back(Vertex(nv));
+    for (Face f : faces)
+      for (Index& c : s.faces[soup_of_face[f.idx()]])
+        if (c == v.idx()) c = nv;
+  }
+  // Edge data for the edges the new vertices now have, from the edges they came from.
+  for (const auto& f : s.faces)
+    for (int k = 0; k < 3; ++k) {
+      const Index a = f[k], b = f[(k + 1) % 3];
+      if (s.edges.count(edge_key(a, b))) continue;
+      auto original = [&](Index x) { return x >= first_new ? path_source(moves, x - first_new) : x; };
+      auto it = s.edges.find(edge_key(original(a), original(b)));
+      if (it != s.edges.end()) s.edges.emplace(edge_key(a, b), it->second);
+    }
+  split_fans(s);
+  commit(g, s, "cut_along");
+  return created;
+}
+
+std::vector<Vertex> edge_path(const Garment& g, Vertex from, Vertex to) {
+  require_vertex(g, from, "path start");
+  require_vertex(g, to, "path end");
+  const Mesh& m = g.mesh();
+  const std::size_t n = g.vertex_capacity();
+  std::vector<double> dist(n, std::numeric_limits<double>::infinity());
+  std::vector<Vertex> parent(n, Mesh::null_vertex());
+  using Item = std::pair<double, Index>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
+  dist[from.idx()] = 0;
+  queue.emplace(0.0, from.idx());
+  while (!queue.empty()) {
+    const auto [d, u] = queue.top();
+    queue.pop();
+    if (d > dist[u]) continue;
+    if (u == to.idx()) break;
+    for (Halfedge h : CGAL::halfedges_around_source(Vertex(u), m)) {
+      const Vertex w = m.target(h);
+      const double nd = d + (g.position(w) - g.position(Vertex(u))).norm();
+      if (nd < dist[w.idx()]) {
+        dist[w.idx()] = nd;
+        parent[w.idx()] = Vertex(u);
+        queue.emplace(nd, w.idx());
+      }
+    }
+  }
+  if (!std::isfinite(dist[to.idx()]))
+    throw InputError("edge_path: vertices " + std::to_string(from.idx()) + " and " + std::to_string(to.idx()) +
+                     " are on different pieces of cloth");
+  std::vector<Vertex> path{to};
+  while (path.back() != from) path.push_back(parent[path.back().idx()]);
+  std::reverse(path.begin(), path.end());
+  return path;
 }
 
 void remove_edges(Garment& g, const std::vector<Edge>& edges) {

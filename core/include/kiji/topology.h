@@ -22,6 +22,17 @@ Vertex split_vertex(Garment& g, Vertex v, const std::vector<Face>& moved);
 // may equal b for a single cut from the border.
 Vertex split_vertex_between(Garment& g, Vertex v, Vertex a, Vertex b);
 
+// Cuts the cloth along a path of vertices joined by edges (a knife stroke): every edge of the path
+// is opened, so the faces on its two sides no longer meet there. Inner path vertices are split in
+// two; an end of the path is split only if it lies on the border (a cut that runs into the cloth
+// ends in a slit). A path from border to border separates the cloth into pieces. No face is lost.
+// Returns the vertices created.
+std::vector<Vertex> cut_along(Garment& g, const std::vector<Vertex>& path);
+
+// The shortest path of edges from `from` to `to` (Dijkstra on edge lengths); throws InputError if
+// they are not connected.
+std::vector<Vertex> edge_path(const Garment& g, Vertex from, Vertex to);
+
 // Removes edge e with its one or two faces (the paper's tear). Vertices left with no face are
 // removed; a vertex whose fan falls into separate wedges is split, one vertex a wedge.
 void remove_edge(Garment& g, Edge e);

@@ -221,6 +221,12 @@ std::size_t Garment::count_pieces() const {
   return pieces;
 }
 
+void Garment::replace_mesh(Mesh mesh) {
+  mesh_ = std::move(mesh);
+  attach_maps();
+  bump_topology_version();
+}
+
 void Garment::compact() {
   if (!mesh_.has_garbage()) return;
   mesh_.collect_garbage();

@@ -91,6 +91,10 @@ class Garment {
   // Number of connected pieces of cloth.
   std::size_t count_pieces() const;
 
+  // Replaces the mesh (the topology edits build a new one); the garment's property maps are taken
+  // from `mesh` by name where it has them. Bumps the topology version.
+  void replace_mesh(Mesh mesh);
+
   // Removes the holes left by removed elements; vertex indices change; bumps the topology version.
   void compact();
   // Rigid or affine placement of the whole garment (positions only; rest state unchanged).

@@ -40,6 +40,11 @@ Vertex merge_vertices(Garment& g, Vertex keep, Vertex gone);
 // Afterwards no border is left along the seam.
 void stitch(Garment& g, const std::vector<Vertex>& a, const std::vector<Vertex>& b);
 
+// Adds every vertex and face of `other` to `g` as separate pieces (e.g. the panels of one garment),
+// keeping their properties; returns the index that `other`'s vertex 0 now has (vertex i of other
+// becomes first + i when other has no removed vertices).
+Vertex append_garment(Garment& g, const Garment& other);
+
 // The border loops of the garment, each as its vertices in order.
 std::vector<std::vector<Vertex>> border_loops(const Garment& g);
 

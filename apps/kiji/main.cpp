@@ -16,6 +16,7 @@ const char* kUsage =
     "\n"
     "commands:\n"
     "  drape     drop a flat garment on a body, let it settle, write the result\n"
+    "  tools     list the tool plugins found, with their parameters\n"
     "  version   print Kiji's version\n"
     "\n"
     "'kiji COMMAND --help' describes a command's options.\n";
@@ -32,6 +33,7 @@ int main(int argc, char** argv) {
   args.erase(args.begin());
   try {
     if (command == "drape") return kiji::cli::drape_command(args);
+    if (command == "tools") return kiji::cli::tools_command(args);
     if (command == "version" || command == "--version") {
       std::printf("kiji %s\n", kiji::version());
       return 0;

@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cmath>
 #include <sstream>
+#include <unordered_map>
 
 namespace kiji {
 
@@ -52,6 +53,7 @@ Garment::Garment(Mesh mesh, Material material) : mesh_(std::move(mesh)), topolog
 Garment::Garment(const Garment& other)
     : name(other.name),
       color(other.color),
+      tacks(other.tacks),
       mesh_(other.mesh_),
       material_(other.material_),
       texture_(other.texture_),
@@ -64,6 +66,7 @@ Garment& Garment::operator=(const Garment& other) {
   if (this == &other) return *this;
   name = other.name;
   color = other.color;
+  tacks = other.tacks;
   mesh_ = other.mesh_;
   material_ = other.material_;
   texture_ = other.texture_;
@@ -76,6 +79,7 @@ Garment& Garment::operator=(const Garment& other) {
 Garment::Garment(Garment&& other) noexcept
     : name(std::move(other.name)),
       color(other.color),
+      tacks(std::move(other.tacks)),
       mesh_(std::move(other.mesh_)),
       material_(std::move(other.material_)),
       texture_(std::move(other.texture_)),
@@ -87,6 +91,7 @@ Garment::Garment(Garment&& other) noexcept
 Garment& Garment::operator=(Garment&& other) noexcept {
   name = std::move(other.name);
   color = other.color;
+  tacks = std::move(other.tacks);
   mesh_ = std::move(other.mesh_);
   material_ = std::move(other.material_);
   texture_ = std::move(other.texture_);
@@ -239,7 +244,16 @@ void Garment::replace_mesh(Mesh mesh) {
 
 void Garment::compact() {
   if (!mesh_.has_garbage()) return;
+  auto old_index = mesh_.add_property_map<Vertex, std::uint32_t>("v:kiji_old_index", 0).first;
+  for (Vertex v : mesh_.vertices()) old_index[v] = v.idx();
   mesh_.collect_garbage();
+  std::unordered_map<std::uint32_t, Vertex> now;
+  for (Vertex v : mesh_.vertices()) now[old_index[v]] = v;
+  mesh_.remove_property_map(old_index);
+  for (auto& [a, b] : tacks) {
+    a = now.at(a.idx());
+    b = now.at(b.idx());
+  }
   attach_maps();
   bump_topology_version();
 }

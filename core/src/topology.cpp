@@ -50,6 +50,7 @@ struct Soup {
   std::vector<std::array<Vec2, 3>> uvs;     // uv at each corner
   std::vector<int> panels;
   std::unordered_map<std::uint64_t, EdgeData> edges;
+  std::vector<std::pair<Index, Index>> tacks;
 
   Index add_vertex(const VertexData& d) {
     vertices.push_back(d);
@@ -110,6 +111,7 @@ Soup to_soup(const Garment& g) {
     if (k != 3) throw TopologyError("garment '" + g.name + "' has a face that is not a triangle");
     s.add_face(corners, uv, g.panel(f));
   }
+  for (const auto& [a, b] : g.tacks) s.tacks.emplace_back(a.idx(), b.idx());
   s.edges.reserve(m.number_of_edges());
   for (Edge e : m.edges()) {
     const Halfedge h = m.halfedge(e);
@@ -242,7 +244,12 @@ void commit(Garment& g, const Soup& s, const std::string& what) {
     }
   }
   if (!CGAL::is_valid_polygon_mesh(m)) throw TopologyError(what + ": the result would not be a valid mesh");
+  std::vector<std::pair<Vertex, Vertex>> tacks;
+  for (const auto& [a, b] : s.tacks)
+    if (a != b && a < n && b < n && !m.is_removed(Vertex(a)) && !m.is_removed(Vertex(b)))
+      tacks.emplace_back(Vertex(a), Vertex(b));
   g.replace_mesh(std::move(m));
+  g.tacks = std::move(tacks);
   g.recompute_masses();
 }
 
@@ -335,6 +342,10 @@ void substitute(Soup& s, Index keep, Index gone) {
       it->second.rest = 0.5 * (it->second.rest + data.rest);
       it->second.threshold = 0.5 * (it->second.threshold + data.threshold);
     }
+  }
+  for (auto& [a, b] : s.tacks) {
+    if (a == gone) a = keep;
+    if (b == gone) b = keep;
   }
   VertexData& k = s.vertices[keep];
   const VertexData& g = s.vertices[gone];
@@ -746,6 +757,7 @@ Vertex append_garment(Garment& g, const Garment& other) {
     s.add_face({o.faces[f][0] + first, o.faces[f][1] + first, o.faces[f][2] + first}, o.uvs[f], o.panels[f]);
   for (const auto& [key, data] : o.edges)
     s.edges.emplace(edge_key(Index(key >> 32) + first, Index(key & 0xffffffffu) + first), data);
+  for (const auto& [a, b] : o.tacks) s.tacks.emplace_back(a + first, b + first);
   // Pinned vertices of `other` stay pinned; its masses follow g's material from here on.
   commit(g, s, "append_garment");
   return Vertex(first);

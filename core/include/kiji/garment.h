@@ -12,6 +12,8 @@
 #include "kiji/types.h"
 
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace kiji {
 
@@ -39,6 +41,12 @@ class Garment {
   const Texture& texture() const { return texture_; }
   // Base colour (linear RGB in [0,1]) shown where there is no texture.
   Vec3 color{0.80, 0.25, 0.22};
+
+  // Tacks: pairs of vertices held together (a zero-length spring in the solver) until they can be
+  // merged. Sewing two separate border vertices tacks them: merging them alone would pinch the
+  // cloth at one vertex; once a neighbouring pair is sewn too, the two pairs close as a seam.
+  // Topology edits keep them up to date (a merged or removed vertex drops its tacks).
+  std::vector<std::pair<Vertex, Vertex>> tacks;
 
   // --- per-vertex ---
   Vec3 position(Vertex v) const { return to_vec(mesh_.point(v)); }

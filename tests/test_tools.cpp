@@ -1,0 +1,375 @@
+// The five tools of the paper and pin, loaded as plugins from the build tree and driven by recorded
+// strokes through a session, checked as a user would check them.
+#include "kiji/error.h"
+#include "kiji/io.h"
+#include "kiji/pattern.h"
+#include "kiji/session.h"
+#include "kiji/topology.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+
+using namespace kiji;
+
+namespace {
+
+std::shared_ptr<ToolRegistry> plugins() {
+  static std::shared_ptr<ToolRegistry> registry = [] {
+    auto r = std::make_shared<ToolRegistry>();
+    for (const auto& report : r->load_plugins({KIJI_PLUGIN_DIR}))
+      EXPECT_TRUE(report.loaded) << report.path << ": " << report.message;
+    return r;
+  }();
+  return registry;
+}
+
+// A straight stroke of n + 1 events from a to b, starting at time t0, dt apart.
+Stroke line(const Vec3& a, const Vec3& b, int n, double t0 = 0, double dt = 1.0 / 60, std::uint32_t buttons = kButtonPrimary) {
+  Stroke s;
+  for (int i = 0; i <= n; ++i) {
+    ToolEvent e;
+    e.phase = i == 0 ? Phase::Begin : (i == n ? Phase::End : Phase::Move);
+    e.time = t0 + i * dt;
+    e.position = a + (b - a) * (double(i) / n);
+    e.buttons = buttons;
+    s.push_back(e);
+  }
+  return s;
+}
+
+// The vertex of a garment nearest a point.
+Vertex nearest(const Garment& g, const Vec3& p) {
+  Vertex best;
+  double d = 1e300;
+  for (Vertex v : g.mesh().vertices())
+    if ((g.position(v) - p).squaredNorm() < d) d = (g.position(v) - p).squaredNorm(), best = v;
+  return best;
+}
+
+// A flat rectangle lying in the z = 0 plane, as made by the pattern maker.
+Session flat_session(double w, double h, int nx, int ny, const Material& m = {}) {
+  Session s(plugins());
+  s.add_garment(make_rectangle(w, h, nx, ny, m));
+  SolverParams p;
+  p.gravity = Vec3::Zero();
+  s.set_solver_params(p);
+  return s;
+}
+
+// Everything undo must restore: topology, positions, pins, texture.
+struct State {
+  std::vector<std::array<std::uint32_t, 3>> faces;
+  std::vector<Vec3> positions;
+  std::vector<double> inverse_masses;
+  std::vector<std::uint8_t> texture;
+  std::size_t tacks = 0;
+};
+
+State state_of(const Garment& g) {
+  State st;
+  for (Face f : g.mesh().faces()) {
+    std::array<std::uint32_t, 3> c{};
+    int k = 0;
+    for (Vertex v : CGAL::vertices_around_face(g.mesh().halfedge(f), g.mesh())) c[k++] = v.idx();
+    st.faces.push_back(c);
+  }
+  for (Vertex v : g.mesh().vertices()) {
+    st.positions.push_back(g.position(v));
+    st.inverse_masses.push_back(g.inverse_mass(v));
+  }
+  st.texture = g.texture().rgba;
+  st.tacks = g.tacks.size();
+  return st;
+}
+
+void expect_same(const State& a, const State& b) {
+  EXPECT_EQ(a.faces, b.faces);
+  ASSERT_EQ(a.positions.size(), b.positions.size());
+  for (std::size_t i = 0; i < a.positions.size(); ++i) EXPECT_EQ(a.positions[i], b.positions[i]);
+  EXPECT_EQ(a.inverse_masses, b.inverse_masses);
+  EXPECT_TRUE(a.texture == b.texture);
+  EXPECT_EQ(a.tacks, b.tacks);
+}
+
+// Runs a stroke and checks that undo brings back exactly the garment before it, and redo the one after.
+void run_and_check_undo(Session& s, const std::string& tool, const ParamSet& params, const Stroke& stroke) {
+  const State before = state_of(s.garment(0));
+  s.run(tool, params, stroke);
+  const State after = state_of(s.garment(0));
+  ASSERT_TRUE(s.undo());
+  expect_same(state_of(s.garment(0)), before);
+  ASSERT_TRUE(s.redo());
+  expect_same(state_of(s.garment(0)), after);
+}
+
+}  // namespace
+
+TEST(Tools, AllSixAreFoundAsPlugins) {
+  auto r = plugins();
+  for (const char* id : {"cut", "paint", "pin", "pinch", "sew", "tear"}) {
+    ASSERT_TRUE(r->has(id)) << id;
+    EXPECT_NE(r->origin(id).find("kiji_" + std::string(id)), std::string::npos);
+    for (const auto& p : r->info(id).parameters) EXPECT_FALSE(p.help.empty()) << id << "." << p.name;
+  }
+}
+
+TEST(Pinch, TheGrabbedVertexFollowsAndTheFeedbackIsTheSpringForce) {
+  Session s(plugins());
+  Garment g = make_rectangle(0.5, 0.5, 21, 21);
+  // Hang it: the top row pinned.
+  for (Vertex v : g.mesh().vertices())
+    if (g.position(v).y() > 0.499) g.set_pinned(v, true);
+  s.add_garment(std::move(g));
+  const Vec3 start = s.garment(0).position(nearest(s.garment(0), Vec3(0.25, 0.0, 0)));
+  const double k = 2000;
+  ParamSet p = s.params_for("pinch", {{"stiffness", k}});
+  const Vec3 goal = start + Vec3(0, 0.05, 0.15);
+  Stroke stroke = line(start, goal, 60);  // a second's pull
+  // Then hold for another second.
+  for (int i = 1; i <= 60; ++i) {
+    ToolEvent e = stroke.back();
+    e.phase = Phase::Move;
+    e.time = 1.0 + i / 60.0;
+    stroke.insert(stroke.end() - 1, e);
+  }
+  stroke.back().time = 2.0 + 1.0 / 60;
+  const Vertex grabbed = nearest(s.garment(0), start);
+  for (const ToolEvent& e : stroke) {
+    const Feedback f = s.apply("pinch", e, &p);
+    if (e.phase == Phase::End) break;
+    const Vec3 x = s.garment(0).position(grabbed);
+    EXPECT_LT((f.force - k * (x - e.position)).norm(), 1e-9) << "feedback is k (vertex - pointer)";
+  }
+  EXPECT_LT((s.garment(0).position(grabbed) - goal).norm(), 0.01) << "the vertex followed the pointer";
+}
+
+TEST(Pinch, WithALocalRadiusNothingOutsideItMoves) {
+  Session s = flat_session(1.0, 1.0, 21, 21);
+  const State before = state_of(s.garment(0));
+  const Vec3 start(0.5, 0.5, 0);
+  ParamSet p = s.params_for("pinch", {{"stiffness", 500.0}, {"local_radius", 0.2}});
+  s.run("pinch", p, line(start, start + Vec3(0, 0, 0.1), 30));
+  const Garment& g = s.garment(0);
+  std::size_t moved_inside = 0, index = 0;
+  for (Vertex v : g.mesh().vertices()) {
+    const Vec3 was = before.positions[index++];
+    const double r = (was - start).norm();
+    if (r > 0.2 + 0.1 + 1e-9) EXPECT_EQ(g.position(v), was) << "vertex " << v.idx() << " outside moved";
+    if (r < 0.1 && g.position(v) != was) ++moved_inside;
+  }
+  EXPECT_GT(moved_inside, 5u);
+}
+
+TEST(Pinch, WholeModeCarriesTheGarment) {
+  Session s = flat_session(1.0, 1.0, 11, 11);
+  s.simulating = false;
+  const State before = state_of(s.garment(0));
+  ParamSet p = s.params_for("pinch", {{"mode", std::string("whole")}});
+  run_and_check_undo(s, "pinch", p, line(Vec3(0.5, 0.5, 0), Vec3(0.7, 0.5, 0.3), 10));
+  std::size_t i = 0;
+  for (Vertex v : s.garment(0).mesh().vertices())
+    EXPECT_LT((s.garment(0).position(v) - (before.positions[i++] + Vec3(0.2, 0, 0.3))).norm(), 1e-12);
+}
+
+namespace {
+// Hangs a cloth of the material by its top edge and pulls its bottom middle down hard.
+Garment pulled(const Material& m, const std::string& mode) {
+  Session s(plugins());
+  Garment g = make_rectangle(0.4, 0.4, 21, 21, m);
+  for (Vertex v : g.mesh().vertices())
+    if (g.position(v).y() > 0.399) g.set_pinned(v, true);
+  s.add_garment(std::move(g));
+  ParamSet p = s.params_for("tear", {{"stiffness", 5000.0}, {"mode", mode}});
+  const Vec3 start(0.2, 0.0, 0);
+  s.run("tear", p, line(start, start + Vec3(0, -0.3, 0.0), 60));
+  return s.garment(0);
+}
+}  // namespace
+
+TEST(Tear, AStrongPullTearsFragileClothAndNotRubber) {
+  const Garment rubber = pulled(Material::rubber(), "remove");
+  EXPECT_TRUE(rubber.is_valid());
+  EXPECT_EQ(rubber.mesh().number_of_faces(), 800u) << "rubber stretches and holds";
+  const Garment tissue = pulled(Material::tissue(), "remove");
+  EXPECT_TRUE(tissue.is_valid());
+  EXPECT_LT(tissue.mesh().number_of_faces(), 800u) << "tissue tears: edges and their faces go";
+}
+
+TEST(Tear, SplitModeOpensTheClothAndLosesNoFace) {
+  const Garment tissue = pulled(Material::tissue(), "split");
+  EXPECT_TRUE(tissue.is_valid());
+  EXPECT_EQ(tissue.mesh().number_of_faces(), 800u);
+  EXPECT_GT(tissue.mesh().number_of_vertices(), 441u) << "the tear opened the cloth";
+}
+
+TEST(Cut, AStrokeAcrossARectangleMakesTwoPiecesKeepingEveryFace) {
+  Session s = flat_session(1.0, 1.0, 21, 21);
+  s.simulating = false;
+  const auto faces = s.garment(0).mesh().number_of_faces();
+  ParamSet p = s.params_for("cut");
+  // From off the cloth on the left to off the cloth on the right, just above the plane.
+  run_and_check_undo(s, "cut", p, line(Vec3(-0.1, 0.52, 0.01), Vec3(1.1, 0.52, 0.01), 40));
+  const Garment& g = s.garment(0);
+  EXPECT_TRUE(g.is_valid());
+  EXPECT_EQ(g.count_pieces(), 2u);
+  EXPECT_EQ(g.mesh().number_of_faces(), faces);
+}
+
+TEST(Cut, VertexModeSplitsThePickedVertexAsThePaperDoes) {
+  Session s = flat_session(1.0, 1.0, 11, 11);
+  s.simulating = false;
+  ParamSet p = s.params_for("cut", {{"mode", std::string("vertex")}});
+  run_and_check_undo(s, "cut", p, line(Vec3(0.5, 0.0, 0.0), Vec3(0.5, 0.1, 0.0), 3));
+  EXPECT_TRUE(s.garment(0).is_valid());
+  EXPECT_EQ(s.garment(0).mesh().number_of_vertices(), 122u);
+  EXPECT_EQ(border_loops(s.garment(0))[0].size(), 42u) << "the border runs into the cut";
+}
+
+TEST(Sew, ARectangleSewnEdgeToEdgeBecomesATube) {
+  Session s = flat_session(1.0, 0.5, 11, 6);
+  s.simulating = false;
+  ParamSet p = s.params_for("sew", {{"distance", 0.02}});
+  // The paper's sewing: drag each vertex of the left border onto its partner on the right.
+  for (int j = 0; j < 6; ++j) {
+    const double y = 0.1 * j;
+    s.run("sew", p, line(Vec3(0.0, y, 0.0), Vec3(1.0, y, 0.0), 20, s.time()));
+  }
+  const Garment& g = s.garment(0);
+  EXPECT_TRUE(g.is_valid());
+  EXPECT_EQ(g.count_pieces(), 1u);
+  EXPECT_EQ(border_loops(g).size(), 2u) << "a tube has two border loops";
+  EXPECT_TRUE(g.tacks.empty()) << "every tack closed into the seam";
+  // Undo of the last sewing stroke gives back the open seam at the end.
+  s.undo();
+  EXPECT_TRUE(s.garment(0).is_valid());
+}
+
+TEST(Sew, TwoPanelsSewnAlongASeamHaveNoBorderAlongIt) {
+  Session s(plugins());
+  Garment a = make_rectangle(0.5, 1.0, 6, 11);
+  Garment b = make_rectangle(0.5, 1.0, 6, 11);
+  b.transform(Eigen::Affine3d(Eigen::Translation3d(0.6, 0, 0)));
+  append_garment(a, b);
+  s.add_garment(std::move(a));
+  s.simulating = false;
+  // Trace the right border of the first panel with the primary button, then the left border of
+  // the second with the secondary.
+  Stroke stroke = line(Vec3(0.5, 0.0, 0.005), Vec3(0.5, 1.0, 0.005), 10);
+  Stroke second = line(Vec3(0.6, 0.0, 0.005), Vec3(0.6, 1.0, 0.005), 10, stroke.back().time, 1.0 / 60,
+                       kButtonSecondary);
+  stroke.back().phase = Phase::Move;
+  second.front().phase = Phase::Move;
+  stroke.insert(stroke.end(), second.begin(), second.end());
+  run_and_check_undo(s, "sew", s.params_for("sew", {{"mode", std::string("seam")}}), stroke);
+  const Garment& g = s.garment(0);
+  EXPECT_TRUE(g.is_valid());
+  EXPECT_EQ(g.count_pieces(), 1u);
+  EXPECT_EQ(border_loops(g).size(), 1u);
+  for (Vertex v : g.mesh().vertices()) {
+    const Vec3 p = g.position(v);
+    if (p.y() > 0.05 && p.y() < 0.95 && p.x() > 0.45 && p.x() < 0.65) EXPECT_FALSE(g.mesh().is_border(v));
+  }
+}
+
+TEST(Paint, TexelsUnderTheStrokeFollowTheClothAndAreExported) {
+  Session s = flat_session(1.0, 1.0, 21, 21);
+  s.simulating = false;
+  ParamSet p = s.params_for("paint", {{"color", Vec3(0, 0, 1)}, {"radius", 0.02}, {"resolution", 256LL}});
+  // A horizontal line at y = 0.3 from x = 0.2 to 0.8, the pen just above the cloth.
+  run_and_check_undo(s, "paint", p, line(Vec3(0.2, 0.3, 0.002), Vec3(0.8, 0.3, 0.002), 30));
+  Garment& g = s.garment(0);
+  const Texture& t = g.texture();
+  ASSERT_EQ(t.width, 256);
+  auto texel_at = [&](double u, double v) { return t.texel(int(u * t.width), int(v * t.height)); };
+  // uv = pattern metres / 1 m: painted along v = 0.3 for u in [0.2, 0.8], not elsewhere.
+  for (double u : {0.25, 0.5, 0.75}) {
+    EXPECT_EQ(texel_at(u, 0.3)[2], 255);
+    EXPECT_EQ(texel_at(u, 0.3)[0], 0);
+  }
+  EXPECT_NE(texel_at(0.5, 0.6)[2], 255);
+  EXPECT_NE(texel_at(0.9, 0.3)[2], 255);
+  // Move the cloth: the painted place goes with it. Pick where the vertex under the stroke went.
+  const Vertex under = nearest(g, Vec3(0.5, 0.3, 0));
+  g.transform(Eigen::Affine3d(Eigen::Translation3d(0.3, -0.2, 0.5) * Eigen::AngleAxisd(0.7, Vec3::UnitY())));
+  const SurfaceHit hit = s.pick(g.position(under) + Vec3(0, 0, 0.001));
+  ASSERT_TRUE(hit.hit);
+  EXPECT_EQ(texel_at(hit.uv.x(), hit.uv.y())[2], 255);
+  // The exported file carries the painted texture.
+  const std::string path = std::string(KIJI_TEST_TMP) + "/painted.glb";
+  export_garment(g, path);
+  const Garment back = import_garment(path);
+  ASSERT_EQ(back.texture().width, t.width);
+  EXPECT_TRUE(back.texture().rgba == t.rgba);
+}
+
+TEST(Paint, TouchingTheClothPushesBackAlongItsNormal) {
+  Session s = flat_session(1.0, 1.0, 11, 11);
+  s.simulating = false;
+  ParamSet p = s.params_for("paint", {{"touch_distance", 0.01}, {"stiffness", 100.0}});
+  ToolEvent e;
+  e.phase = Phase::Begin;
+  e.position = Vec3(0.5, 0.5, 0.004);
+  const Feedback f = s.apply("paint", e, &p);
+  EXPECT_NEAR(f.force.z(), 100.0 * (0.01 - 0.004), 1e-9);
+  EXPECT_NEAR(f.force.head<2>().norm(), 0.0, 1e-12);
+  e.phase = Phase::End;
+  s.apply("paint", e);
+}
+
+TEST(Pin, PinsAndUnpinsTheClothUnderTheBrush) {
+  Session s = flat_session(1.0, 1.0, 21, 21);
+  s.simulating = false;
+  run_and_check_undo(s, "pin", s.params_for("pin", {{"radius", 0.03}}), line(Vec3(0.0, 1.0, 0.01), Vec3(1.0, 1.0, 0.01), 20));
+  Garment& g = s.garment(0);
+  std::size_t pinned = 0;
+  for (Vertex v : g.mesh().vertices()) {
+    const bool top = g.position(v).y() > 0.95;
+    EXPECT_EQ(g.pinned(v), top) << g.position(v).transpose();
+    pinned += g.pinned(v);
+  }
+  EXPECT_EQ(pinned, 21u);
+  // Pinned, the top holds under gravity while the rest falls.
+  s.simulating = true;
+  SolverParams params;
+  s.set_solver_params(params);
+  const Vec3 corner = g.position(nearest(g, Vec3(0, 1, 0)));
+  for (int i = 0; i < 30; ++i) s.step();
+  EXPECT_EQ(s.garment(0).position(nearest(s.garment(0), corner)), corner);
+  EXPECT_LT(s.garment(0).bounds().min().y(), -0.01);
+  s.run("pin", s.params_for("pin", {{"mode", std::string("unpin")}, {"radius", 2.0}}),
+        line(Vec3(0.5, 0.5, 0.0), Vec3(0.5, 0.5, 0.0), 1, s.time()));
+  for (Vertex v : s.garment(0).mesh().vertices()) EXPECT_FALSE(s.garment(0).pinned(v));
+}
+
+TEST(Session, BadEventsAndParametersAreClearErrorsAndLoseNothing) {
+  Session s = flat_session(1.0, 1.0, 11, 11);
+  const State before = state_of(s.garment(0));
+  EXPECT_THROW(s.params_for("cut", {{"blade", 1.0}}), InputError);
+  EXPECT_THROW(s.params_for("paint", {{"radius", -1.0}}), InputError);
+  EXPECT_THROW(s.params_for("paint", {{"color", Vec3(2, 0, 0)}}), InputError);
+  EXPECT_THROW(s.params_for("cut", {{"mode", std::string("laser")}}), InputError);
+  EXPECT_THROW(s.params_for("lasso"), InputError);
+  ToolEvent e;
+  e.phase = Phase::Move;
+  EXPECT_THROW(s.apply("cut", e), InputError) << "a move without a begin";
+  e.phase = Phase::Begin;
+  e.position = Vec3(NAN, 0, 0);
+  ParamSet p = s.params_for("cut");
+  EXPECT_THROW(s.apply("cut", e, &p), InputError);
+  EXPECT_FALSE(s.stroke_active());
+  expect_same(state_of(s.garment(0)), before);
+}
+
+TEST(Session, CancelRestoresTheGarment) {
+  Session s = flat_session(1.0, 1.0, 11, 11);
+  s.simulating = false;
+  const State before = state_of(s.garment(0));
+  ParamSet p = s.params_for("pinch", {{"mode", std::string("whole")}});
+  Stroke stroke = line(Vec3(0.5, 0.5, 0), Vec3(0.9, 0.5, 0), 5);
+  stroke.back().phase = Phase::Cancel;
+  s.run("pinch", p, stroke);
+  expect_same(state_of(s.garment(0)), before);
+  EXPECT_FALSE(s.journal().can_undo()) << "a cancelled stroke is not journaled";
+}

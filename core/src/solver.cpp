@@ -1,0 +1,420 @@
+// Solver: parameters, input checking, the flat arrays mirrored from the mesh, measures.
+// The two models are in solver_xpbd.cpp and solver_mass_spring.cpp, collisions in
+// solver_collide.cpp.
+#include "kiji/solver.h"
+
+#include "kiji/error.h"
+#include "solver_state.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <sstream>
+
+namespace kiji {
+
+struct Solver::State : SolverArrays {};
+
+SolverModel parse_solver_model(const std::string& name) {
+  if (name == "xpbd") return SolverModel::Xpbd;
+  if (name == "mass_spring" || name == "mass-spring") return SolverModel::MassSpring;
+  throw InputError("unknown solver model '" + name + "': use 'xpbd' or 'mass_spring'");
+}
+
+std::string solver_model_name(SolverModel model) {
+  return model == SolverModel::MassSpring ? "mass_spring" : "xpbd";
+}
+
+namespace {
+template <typename T>
+void require(bool ok, const char* field, const T& value, const char* what) {
+  if (ok) return;
+  std::ostringstream msg;
+  msg << "solver parameter '" << field << "' is " << value << ": it must be " << what;
+  throw InputError(msg.str());
+}
+std::string vec_text(const Vec3& v) {
+  std::ostringstream s;
+  s << "(" << v.x() << ", " << v.y() << ", " << v.z() << ")";
+  return s.str();
+}
+Vertex vtx(int i) { return Vertex(static_cast<Mesh::size_type>(i)); }
+}  // namespace
+
+void SolverParams::validate() const {
+  require(model == SolverModel::Xpbd || model == SolverModel::MassSpring, "model",
+          static_cast<int>(model), "xpbd or mass_spring");
+  require(all_finite(gravity), "gravity", vec_text(gravity), "a finite vector in m/s^2");
+  require(substeps >= 1 && substeps <= 1000, "substeps", substeps, "between 1 and 1000");
+  require(iterations >= 1 && iterations <= 100, "iterations", iterations, "between 1 and 100");
+  require(std::isfinite(spring_k) && spring_k > 0, "spring_k", spring_k,
+          "a positive finite spring constant (eq. 3 of the paper)");
+  require(std::isfinite(spring_damping) && spring_damping >= 0, "spring_damping", spring_damping,
+          "zero or a positive finite damping (gamma of eq. 1)");
+  require(std::isfinite(local_radius) && local_radius >= 0, "local_radius", local_radius,
+          "zero (no local region) or a positive finite radius in metres");
+  require(all_finite(local_center), "local_center", vec_text(local_center), "a finite point");
+}
+
+Solver::Solver(SolverParams params) : state_(std::make_unique<State>()) {
+  params.validate();
+  params_ = params;
+}
+
+Solver::~Solver() = default;
+
+void Solver::set_params(const SolverParams& params) {
+  params.validate();
+  params_ = params;
+}
+
+void Solver::set_body(const Body* body) {
+  if (body == body_ && (body == nullptr || collider_)) return;
+  body_ = body;
+  collider_ = body ? std::make_unique<BodyCollider>(*body) : nullptr;
+  solver_detail::set_body(*state_, body);
+}
+
+void Solver::add_external_force(Vertex v, const Vec3& force) { forces_.push_back({v, force}); }
+
+namespace solver_detail {
+
+namespace {
+std::uint32_t spread_bits(std::uint32_t x) {  // 10 bits -> every third bit
+  x &= 0x3ff;
+  x = (x | (x << 16)) & 0x030000ff;
+  x = (x | (x << 8)) & 0x0300f00f;
+  x = (x | (x << 4)) & 0x030c30c3;
+  x = (x | (x << 2)) & 0x09249249;
+  return x;
+}
+
+// Greedy colouring: a constraint gets the smallest colour none of its vertices has yet, so the
+// constraints of one colour share no vertex (they can be solved in parallel, Gauss-Seidel between
+// colours). Returns the permutation sorted by colour and the colour offsets.
+template <int K, typename GetVerts>
+void colour(std::size_t count, std::size_t n, GetVerts verts, std::vector<int>& perm,
+            std::vector<int>& offsets) {
+  std::vector<std::uint64_t> used(n, 0);
+  std::vector<int> col(count, 0);
+  int ncol = 0;
+  for (std::size_t c = 0; c < count; ++c) {
+    std::array<int, K> vs = verts(c);
+    std::uint64_t mask = 0;
+    for (int k = 0; k < K; ++k) mask |= used[vs[k]];
+    int colour_id = 0;
+    while (colour_id < 63 && (mask >> colour_id) & 1u) ++colour_id;  // 63 = overflow bucket
+    col[c] = colour_id;
+    if (colour_id < 63)
+      for (int k = 0; k < K; ++k) used[vs[k]] |= (std::uint64_t(1) << colour_id);
+    ncol = std::max(ncol, colour_id + 1);
+  }
+  offsets.assign(ncol + 1, 0);
+  for (std::size_t c = 0; c < count; ++c) ++offsets[col[c] + 1];
+  for (int k = 0; k < ncol; ++k) offsets[k + 1] += offsets[k];
+  std::vector<int> fill(offsets.begin(), offsets.end() - 1);
+  perm.assign(count, 0);
+  for (std::size_t c = 0; c < count; ++c) perm[fill[col[c]]++] = static_cast<int>(c);
+}
+
+double heron(double a, double b, double c) {
+  const double s = 0.5 * (a + b + c);
+  const double q = s * (s - a) * (s - b) * (s - c);
+  return q > 0 ? std::sqrt(q) : 0.0;
+}
+}  // namespace
+
+void rebuild(SolverArrays& s, const Garment& g) {
+  const Mesh& m = g.mesh();
+  const std::size_t n = g.vertex_capacity();
+  s.garment = &g;
+  s.topology = g.topology_version();
+  s.n = n;
+  s.alive.assign(n, 0);
+  s.moving.assign(n, 0);
+  s.x.assign(n, Vec3::Zero());
+  s.xp = s.x0 = s.v = s.fext = s.pred = s.x;
+  s.w.assign(n, 0.0);
+  for (Vertex v : m.vertices()) s.alive[v.idx()] = 1;
+
+  // Spatial order of the vertices (for collision clusters): Morton code of the current positions.
+  Box3 box;
+  for (Vertex v : m.vertices()) box.extend(to_vec(m.point(v)));
+  std::vector<std::pair<std::uint32_t, int>> keyed;
+  keyed.reserve(m.number_of_vertices());
+  const Vec3 ext = box.isEmpty() ? Vec3::Ones() : Vec3(box.sizes().cwiseMax(1e-9));
+  for (Vertex v : m.vertices()) {
+    const Vec3 q = ((to_vec(m.point(v)) - box.min()).cwiseQuotient(ext) * 1023.0).cwiseMax(0.0).cwiseMin(1023.0);
+    const std::uint32_t code = spread_bits(std::uint32_t(q.x())) | (spread_bits(std::uint32_t(q.y())) << 1) |
+                               (spread_bits(std::uint32_t(q.z())) << 2);
+    keyed.emplace_back(code, static_cast<int>(v.idx()));
+  }
+  std::sort(keyed.begin(), keyed.end());
+  s.order.clear();
+  for (const auto& k : keyed) s.order.push_back(k.second);
+
+  // Edges, coloured.
+  std::vector<int> ei, ej;
+  std::vector<Edge> eh;
+  for (Edge e : m.edges()) {
+    const Halfedge h = m.halfedge(e);
+    ei.push_back(static_cast<int>(m.source(h).idx()));
+    ej.push_back(static_cast<int>(m.target(h).idx()));
+    eh.push_back(e);
+  }
+  std::vector<int> perm;
+  colour<2>(ei.size(), n, [&](std::size_t c) { return std::array<int, 2>{ei[c], ej[c]}; }, perm, s.e_color);
+  s.e_i.resize(perm.size());
+  s.e_j.resize(perm.size());
+  s.e_handle.resize(perm.size());
+  s.e_rest.assign(perm.size(), 0.0);
+  for (std::size_t k = 0; k < perm.size(); ++k) {
+    s.e_i[k] = ei[perm[k]];
+    s.e_j[k] = ej[perm[k]];
+    s.e_handle[k] = eh[perm[k]];
+  }
+
+  // Isometric bending (Bergou et al. 2006, "A quadratic bending model for inextensible surfaces")
+  // on every interior edge, from the rest lengths (the pattern is flat at rest).
+  std::vector<SolverArrays::Bend> bends;
+  for (Edge e : m.edges()) {
+    if (m.is_border(e)) continue;
+    const Halfedge h = m.halfedge(e), o = m.opposite(h);
+    const int a = static_cast<int>(m.source(h).idx()), b = static_cast<int>(m.target(h).idx());
+    const int c = static_cast<int>(m.target(m.next(h)).idx());
+    const int d = static_cast<int>(m.target(m.next(o)).idx());
+    if (c == d) continue;
+    const double lab = g.rest_length(e);
+    const double lbc = g.rest_length(m.edge(m.next(h))), lca = g.rest_length(m.edge(m.prev(h)));
+    const double lad = g.rest_length(m.edge(m.next(o))), ldb = g.rest_length(m.edge(m.prev(o)));
+    const double A0 = heron(lab, lbc, lca), A1 = heron(lab, lad, ldb);
+    if (!(A0 > 1e-14) || !(A1 > 1e-14)) continue;
+    const double c01 = (lab * lab + lca * lca - lbc * lbc) / (4 * A0);  // angle at a, triangle abc
+    const double c02 = (lab * lab + lad * lad - ldb * ldb) / (4 * A1);  // angle at a, triangle abd
+    const double c03 = (lab * lab + lbc * lbc - lca * lca) / (4 * A0);  // angle at b, triangle abc
+    const double c04 = (lab * lab + ldb * ldb - lad * lad) / (4 * A1);  // angle at b, triangle abd
+    const double sc = std::sqrt(3.0 / (A0 + A1));
+    SolverArrays::Bend bd{{a, b, c, d},
+                          {sc * (c03 + c04), sc * (c01 + c02), sc * (-c01 - c03), sc * (-c02 - c04)}};
+    bends.push_back(bd);
+  }
+  colour<4>(bends.size(), n,
+            [&](std::size_t c) { return std::array<int, 4>{bends[c].v[0], bends[c].v[1], bends[c].v[2], bends[c].v[3]}; },
+            perm, s.b_color);
+  s.bends.resize(perm.size());
+  for (std::size_t k = 0; k < perm.size(); ++k) s.bends[k] = bends[perm[k]];
+
+  // Triangles and neighbours.
+  s.tris.clear();
+  for (Face f : m.faces()) {
+    std::array<int, 3> t{};
+    int k = 0;
+    for (Vertex v : CGAL::vertices_around_face(m.halfedge(f), m)) {
+      if (k < 3) t[k] = static_cast<int>(v.idx());
+      ++k;
+    }
+    if (k == 3) s.tris.push_back(t);
+  }
+  s.nbr_begin.assign(n + 1, 0);
+  for (std::size_t k = 0; k < ei.size(); ++k) {
+    ++s.nbr_begin[ei[k] + 1];
+    ++s.nbr_begin[ej[k] + 1];
+  }
+  for (std::size_t i = 0; i < n; ++i) s.nbr_begin[i + 1] += s.nbr_begin[i];
+  s.nbr.assign(s.nbr_begin[n], 0);
+  {
+    std::vector<int> fill(s.nbr_begin.begin(), s.nbr_begin.end() - 1);
+    for (std::size_t k = 0; k < ei.size(); ++k) {
+      s.nbr[fill[ei[k]]++] = ej[k];
+      s.nbr[fill[ej[k]]++] = ei[k];
+    }
+  }
+
+  // Self-collision trees: one leaf per triangle and per vertex, built once, refitted every step.
+  s.tri_tree.clear();
+  s.vert_tree.clear();
+  s.tri_leaf.assign(s.tris.size(), nullptr);
+  s.vert_leaf.assign(n, nullptr);
+  for (std::size_t t = 0; t < s.tris.size(); ++t) {
+    btVector3 lo(0, 0, 0), hi(0, 0, 0);
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 p = to_vec(m.point(vtx(s.tris[t][k])));
+      const btVector3 q(p.x(), p.y(), p.z());
+      if (k == 0) lo = hi = q;
+      lo.setMin(q);
+      hi.setMax(q);
+    }
+    s.tri_leaf[t] = s.tri_tree.insert(btDbvtVolume::FromMM(lo, hi), reinterpret_cast<void*>(static_cast<std::intptr_t>(t)));
+  }
+  for (int i : s.order) {
+    const Vec3 p = to_vec(m.point(vtx(i)));
+    const btVector3 q(p.x(), p.y(), p.z());
+    s.vert_leaf[i] = s.vert_tree.insert(btDbvtVolume::FromMM(q, q), reinterpret_cast<void*>(static_cast<std::intptr_t>(i)));
+  }
+  s.tri_tree.optimizeTopDown();
+  s.vert_tree.optimizeTopDown();
+  // optimizeTopDown keeps the leaf nodes but find them again, to depend on nothing more.
+  std::vector<btDbvtNode*> stack;
+  auto collect = [&](btDbvt& tree, std::vector<btDbvtNode*>& leaves) {
+    std::fill(leaves.begin(), leaves.end(), nullptr);
+    if (!tree.m_root) return;
+    stack.assign(1, tree.m_root);
+    while (!stack.empty()) {
+      btDbvtNode* nd = stack.back();
+      stack.pop_back();
+      if (nd->isleaf())
+        leaves[static_cast<std::size_t>(reinterpret_cast<std::intptr_t>(nd->data))] = nd;
+      else {
+        stack.push_back(nd->childs[0]);
+        stack.push_back(nd->childs[1]);
+      }
+    }
+  };
+  collect(s.tri_tree, s.tri_leaf);
+  collect(s.vert_tree, s.vert_leaf);
+
+  s.cand_start.assign(n, 0);
+  s.cand_count.assign(n, 0);
+  s.cand.clear();
+  s.contact_verts.clear();
+  s.self_pairs.clear();
+  s.built = true;
+}
+
+}  // namespace solver_detail
+
+void Solver::step(Garment& garment, double dt) {
+  if (!std::isfinite(dt) || dt <= 0) {
+    forces_.clear();
+    std::ostringstream msg;
+    msg << "time step dt is " << dt << ": it must be a positive finite number of seconds (e.g. 1/60)";
+    throw InputError(msg.str());
+  }
+  params_.validate();
+  const Material& mat = garment.material();
+  mat.validate();
+  const Mesh& m = garment.mesh();
+  const std::size_t n = garment.vertex_capacity();
+
+  // Check the input state before touching anything.
+  for (Vertex v : m.vertices()) {
+    if (!all_finite(garment.position(v)) || !all_finite(garment.velocity(v)) ||
+        !std::isfinite(garment.inverse_mass(v)) || garment.inverse_mass(v) < 0) {
+      forces_.clear();
+      throw InputError("garment '" + garment.name + "' has a non-finite position, velocity or mass at vertex " +
+                       std::to_string(v.idx()) + ": reset or reload the garment");
+    }
+  }
+  for (Edge e : m.edges()) {
+    const double r = garment.rest_length(e);
+    if (!std::isfinite(r) || r <= 0) {
+      forces_.clear();
+      throw InputError("garment '" + garment.name + "' has a rest length of " + std::to_string(r) +
+                       " on edge " + std::to_string(e.idx()) + ": rest lengths must be positive");
+    }
+  }
+  for (const auto& f : forces_) {
+    if (f.vertex.idx() >= n || m.is_removed(f.vertex) || !all_finite(f.force)) {
+      forces_.clear();
+      throw InputError("an external force is on a vertex that does not exist or is not finite: "
+                       "apply finite forces to vertices of this garment");
+    }
+  }
+
+  State& s = *state_;
+  if (!s.built || s.garment != &garment || s.topology != garment.topology_version() || s.n != n)
+    solver_detail::rebuild(s, garment);
+
+  // Mirror the mesh into the flat arrays.
+  const bool mass_spring = params_.model == SolverModel::MassSpring;
+  const bool local = params_.local_radius > 0;
+  const double r2 = params_.local_radius * params_.local_radius;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!s.alive[i]) {
+      s.moving[i] = 0;
+      s.w[i] = 0;
+      continue;
+    }
+    const Vertex v = vtx(static_cast<int>(i));
+    s.x[i] = garment.position(v);
+    s.v[i] = garment.velocity(v);
+    s.fext[i].setZero();
+    const double im = garment.inverse_mass(v);
+    bool in = im > 0;
+    if (local && (s.x[i] - params_.local_center).squaredNorm() > r2) in = false;
+    s.moving[i] = in;
+    s.w[i] = in ? (mass_spring ? 1.0 : im) : 0.0;
+  }
+  for (std::size_t k = 0; k < s.e_handle.size(); ++k) s.e_rest[k] = garment.rest_length(s.e_handle[k]);
+  for (const auto& f : forces_) s.fext[f.vertex.idx()] += f.force;
+  forces_.clear();
+
+  const BodyCollider* body = (params_.body_collision && collider_) ? collider_.get() : nullptr;
+  if (mass_spring)
+    solver_detail::step_mass_spring(s, params_, mat, body, dt);
+  else
+    solver_detail::step_xpbd(s, params_, mat, body, dt);
+
+  // Refuse to write a diverged state back (the garment keeps its last good state).
+  for (std::size_t i = 0; i < n; ++i) {
+    if (s.moving[i] && (!all_finite(s.x[i]) || !all_finite(s.v[i]))) {
+      s.built = false;
+      throw InputError("the simulation diverged (non-finite state) at vertex " + std::to_string(i) +
+                       ": lower dt or spring_k, or raise substeps; the garment was left as it was");
+    }
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!s.moving[i]) continue;
+    const Vertex v = vtx(static_cast<int>(i));
+    garment.set_position(v, s.x[i]);
+    garment.velocity(v) = s.v[i];
+  }
+}
+
+std::vector<Vec3> Solver::spring_forces(const Garment& garment) const {
+  const Mesh& m = garment.mesh();
+  std::vector<Vec3> f(garment.vertex_capacity(), Vec3::Zero());
+  const double k = params_.spring_k;
+  for (Edge e : m.edges()) {
+    const Halfedge h = m.halfedge(e);
+    const Vertex i = m.source(h), j = m.target(h);
+    const Vec3 dij = garment.position(j) - garment.position(i);
+    const double lc = dij.norm();  // l'_ij, the current length
+    if (!(lc > 0)) continue;
+    const Vec3 g = k * (1.0 - garment.rest_length(e) / lc) * (dij / lc);  // eq. 3: g_ij
+    f[i.idx()] += g;
+    f[j.idx()] -= g;  // g_ji = -g_ij
+  }
+  return f;
+}
+
+ClothMeasures Solver::measure(const Garment& garment) const {
+  ClothMeasures r;
+  const Mesh& m = garment.mesh();
+  r.vertices = m.number_of_vertices();
+  double sum = 0;
+  std::size_t ne = 0;
+  for (Edge e : m.edges()) {
+    const double rest = garment.rest_length(e);
+    if (!(rest > 0)) continue;
+    const double strain = std::abs(garment.length(e) / rest - 1.0);
+    r.max_strain = std::max(r.max_strain, strain);
+    sum += strain;
+    ++ne;
+  }
+  r.mean_strain = ne ? sum / ne : 0.0;
+  r.kinetic_energy = garment.kinetic_energy();
+  if (collider_) {
+    const double th = garment.material().thickness;
+    const double radius = std::max(0.05, 10 * th);
+    for (Vertex v : m.vertices()) {
+      const BodyContact c = collider_->closest(garment.position(v), radius);
+      if (!c.hit) continue;
+      if (c.distance < 0) r.max_penetration = std::max(r.max_penetration, -c.distance);
+      if (c.distance < 1.5 * th) ++r.contacts;
+    }
+  }
+  return r;
+}
+
+}  // namespace kiji

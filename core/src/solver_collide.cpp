@@ -1,0 +1,225 @@
+// Collisions for the solver: cloth against the body and cloth against itself.
+//
+// Culling happens once per step; the substeps only run exact tests on the cached candidates:
+//  - body: the vertices are grouped in clusters of nearby vertices (Morton order); each cluster's
+//    swept box (the step's predicted motion plus the thickness) queries the body's Bullet tree
+//    once, and each vertex keeps the triangles whose boxes meet its own swept box;
+//  - self: two Bullet btDbvt trees (cloth vertices, cloth triangles), refitted to the swept boxes
+//    every step and intersected with each other, give vertex-triangle pairs; pairs that cannot come
+//    within the thickness during the step are dropped, and each keeps the side it started on.
+#include "geometry.h"
+#include "solver_state.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace kiji::solver_detail {
+
+namespace {
+constexpr int kCluster = 32;
+
+Box3 swept_box(const SolverArrays& s, int i, double pad) {
+  const Vec3& a = s.x[i];
+  const Vec3 b = a + s.pred[i];
+  const double e = pad + 0.5 * s.pred[i].norm();
+  return Box3(a.cwiseMin(b) - Vec3::Constant(e), a.cwiseMax(b) + Vec3::Constant(e));
+}
+
+btDbvtVolume to_bt(const Box3& b) {
+  return btDbvtVolume::FromMM(btVector3(b.min().x(), b.min().y(), b.min().z()),
+                              btVector3(b.max().x(), b.max().y(), b.max().z()));
+}
+
+void refit(btDbvtNode* node) {
+  if (node->isleaf()) return;
+  refit(node->childs[0]);
+  refit(node->childs[1]);
+  Merge(node->childs[0]->volume, node->childs[1]->volume, node->volume);
+}
+}  // namespace
+
+void set_body(SolverArrays& s, const Body* body) {
+  s.body = body;
+  s.body_tris.clear();
+  s.body_boxes.clear();
+  s.body_bounds.setEmpty();
+  if (!body) return;
+  const auto& V = body->vertices();
+  const auto& T = body->triangles();
+  s.body_tris.reserve(T.size());
+  s.body_boxes.reserve(T.size());
+  for (std::size_t t = 0; t < T.size(); ++t) {
+    SolverArrays::BodyTri bt{V[T[t][0]], V[T[t][1]], V[T[t][2]], body->triangle_normal(t)};
+    Box3 b;
+    b.extend(bt.a);
+    b.extend(bt.b);
+    b.extend(bt.c);
+    s.body_tris.push_back(bt);
+    s.body_boxes.push_back(b);
+    s.body_bounds.extend(b);
+  }
+}
+
+void gather_body_candidates(SolverArrays& s, const BodyCollider& collider, double thickness) {
+  s.cand.clear();
+  s.contact_verts.clear();
+  std::fill(s.cand_count.begin(), s.cand_count.end(), 0);
+  const double pad = 1.5 * thickness;
+  const int nv = static_cast<int>(s.order.size());
+  for (int c0 = 0; c0 < nv; c0 += kCluster) {
+    const int c1 = std::min(nv, c0 + kCluster);
+    Box3 cb;
+    for (int k = c0; k < c1; ++k) {
+      const int i = s.order[k];
+      if (s.moving[i]) cb.extend(swept_box(s, i, pad));
+    }
+    if (cb.isEmpty() || !cb.intersects(s.body_bounds)) continue;
+    collider.triangles_in_box(cb, s.scratch);
+    if (s.scratch.empty()) continue;
+    for (int k = c0; k < c1; ++k) {
+      const int i = s.order[k];
+      if (!s.moving[i]) continue;
+      const Box3 vb = swept_box(s, i, pad);
+      s.cand_start[i] = static_cast<int>(s.cand.size());
+      for (int t : s.scratch)
+        if (s.body_boxes[t].intersects(vb)) s.cand.push_back(t);
+      s.cand_count[i] = static_cast<int>(s.cand.size()) - s.cand_start[i];
+      if (s.cand_count[i] > 0) s.contact_verts.push_back(i);
+    }
+  }
+  s.last_body_candidates = s.cand.size();
+}
+
+void resolve_body(SolverArrays& s, int i, double th, double mu) {
+  Vec3 x = s.x[i];
+  const Vec3 xp = s.xp[i];
+  double push = 0;
+  Vec3 nrm = Vec3::Zero();
+  const int* c = s.cand.data() + s.cand_start[i];
+  const int cnt = s.cand_count[i];
+  for (int k = 0; k < cnt; ++k) {
+    const SolverArrays::BodyTri& T = s.body_tris[c[k]];
+    const double dn = (x - T.a).dot(T.n);
+    if (dn >= th) continue;
+    const double dp = (xp - T.a).dot(T.n);
+    if (dp >= 0 && dn < 0) {
+      // It went through the triangle's plane this substep: did it go through the triangle?
+      double t;
+      if (geom::segment_crosses_triangle(xp, x, T.a, T.b, T.c, t)) {
+        const Vec3 nx = xp + t * (x - xp) + th * T.n;  // back to the side it came from
+        push += (nx - x).norm();
+        nrm = T.n;
+        x = nx;
+        continue;
+      }
+    }
+    if (dn <= -th) continue;
+    if (dp < -th) continue;  // it came from deep behind (inside, or beyond a thin part): leave it
+    const geom::ClosestPoint cp = geom::closest_on_triangle(x, T.a, T.b, T.c);
+    const Vec3 d = x - cp.point;
+    const double d2 = d.squaredNorm();
+    if (d2 >= th * th) continue;
+    const Vec3 dir = (dn > 0 && d2 > 1e-24) ? Vec3(d / std::sqrt(d2)) : T.n;
+    const Vec3 nx = cp.point + th * dir;
+    push += (nx - x).norm();
+    nrm = dir;
+    x = nx;
+  }
+  if (push > 0 && mu > 0) {
+    // Coulomb friction on the substep's tangential motion (position-based, Macklin et al. 2014).
+    const Vec3 dx = x - xp;
+    const Vec3 tan = dx - nrm * dx.dot(nrm);
+    const double lt = tan.norm();
+    if (lt > 0) x -= (lt <= mu * push) ? tan : Vec3(tan * (mu * push / lt));
+  }
+  s.x[i] = x;
+}
+
+namespace {
+struct PairCollector : btDbvt::ICollide {
+  SolverArrays* s;
+  double th;
+  void Process(const btDbvtNode* a, const btDbvtNode* b) override {
+    const int v = static_cast<int>(reinterpret_cast<std::intptr_t>(a->data));
+    const int t = static_cast<int>(reinterpret_cast<std::intptr_t>(b->data));
+    const auto& tri = s->tris[t];
+    if (s->w[v] == 0 && s->w[tri[0]] == 0 && s->w[tri[1]] == 0 && s->w[tri[2]] == 0) return;
+    // Skip the triangles of the vertex and of its neighbours: they are close at rest.
+    for (int k = 0; k < 3; ++k) {
+      const int u = tri[k];
+      if (u == v) return;
+      for (int q = s->nbr_begin[v]; q < s->nbr_begin[v + 1]; ++q)
+        if (s->nbr[q] == u) return;
+    }
+    const Vec3& A = s->x[tri[0]];
+    const Vec3& B = s->x[tri[1]];
+    const Vec3& C = s->x[tri[2]];
+    const geom::ClosestPoint cp = geom::closest_on_triangle(s->x[v], A, B, C);
+    const Vec3 d = s->x[v] - cp.point;
+    double rel = 0;
+    for (int k = 0; k < 3; ++k) rel = std::max(rel, (s->pred[v] - s->pred[tri[k]]).norm());
+    if (d.norm() > th + rel) return;  // cannot come within the thickness during this step
+    const Vec3 n = (B - A).cross(C - A);
+    const double side = d.dot(n) >= 0 ? 1.0 : -1.0;
+    s->self_pairs.push_back({v, t, side});
+  }
+};
+}  // namespace
+
+void gather_self_pairs(SolverArrays& s, double thickness) {
+  s.self_pairs.clear();
+  if (!s.tri_tree.m_root || !s.vert_tree.m_root) return;
+  for (std::size_t t = 0; t < s.tris.size(); ++t) {
+    Box3 b;
+    for (int k = 0; k < 3; ++k) {
+      const int u = s.tris[t][k];
+      b.extend(s.x[u]);
+      b.extend(Vec3(s.x[u] + s.pred[u]));
+    }
+    s.tri_leaf[t]->volume = to_bt(b);
+  }
+  for (std::size_t i = 0; i < s.vert_leaf.size(); ++i)
+    if (s.vert_leaf[i]) s.vert_leaf[i]->volume = to_bt(swept_box(s, static_cast<int>(i), thickness));
+  refit(s.tri_tree.m_root);
+  refit(s.vert_tree.m_root);
+  PairCollector pc;
+  pc.s = &s;
+  pc.th = thickness;
+  s.vert_tree.collideTT(s.vert_tree.m_root, s.tri_tree.m_root, pc);
+  s.last_self_pairs = s.self_pairs.size();
+}
+
+void resolve_self(SolverArrays& s, double th) {
+  for (const auto& p : s.self_pairs) {
+    const auto& tri = s.tris[p.t];
+    Vec3& xv = s.x[p.v];
+    Vec3& A = s.x[tri[0]];
+    Vec3& B = s.x[tri[1]];
+    Vec3& C = s.x[tri[2]];
+    Vec3 n = (B - A).cross(C - A);
+    const double len = n.norm();
+    if (!(len > 1e-20)) continue;
+    n *= p.side / len;
+    const geom::ClosestPoint cp = geom::closest_on_triangle(xv, A, B, C);
+    const Vec3 d = xv - cp.point;
+    const double dn = d.dot(n);
+    if (dn >= th) continue;
+    if (dn >= 0) {
+      if (d.squaredNorm() >= th * th) continue;
+    } else {
+      // On the wrong side: a crossing only if it is over the triangle (not beside it).
+      const double eps = -1e-6;
+      if (d.squaredNorm() >= th * th && (cp.b0 <= eps || cp.b1 <= eps || cp.b2 <= eps)) continue;
+    }
+    const double wv = s.w[p.v], w0 = s.w[tri[0]], w1 = s.w[tri[1]], w2 = s.w[tri[2]];
+    const double denom = wv + cp.b0 * cp.b0 * w0 + cp.b1 * cp.b1 * w1 + cp.b2 * cp.b2 * w2;
+    if (!(denom > 0)) continue;
+    const double lambda = (th - dn) / denom;
+    xv += (wv * lambda) * n;
+    A -= (w0 * cp.b0 * lambda) * n;
+    B -= (w1 * cp.b1 * lambda) * n;
+    C -= (w2 * cp.b2 * lambda) * n;
+  }
+}
+
+}  // namespace kiji::solver_detail

@@ -1,0 +1,93 @@
+// The solver's flat arrays (structure of arrays), private to libkiji.
+//
+// Everything per vertex is indexed by the garment's vertex index (0 .. vertex_capacity()-1);
+// removed vertices are inert (alive = 0, inverse mass 0, no constraints). The arrays are rebuilt
+// when the garment's topology version changes and refreshed from the mesh (positions, velocities,
+// inverse masses, rest lengths) at the start of every step: the mesh stays the truth.
+#pragma once
+
+#include "kiji/solver.h"
+
+#include <BulletCollision/BroadphaseCollision/btDbvt.h>
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace kiji {
+
+struct SolverArrays {
+  // ---- identity of what the arrays mirror ----
+  const Garment* garment = nullptr;
+  std::uint64_t topology = 0;
+  std::size_t n = 0;  // vertex capacity
+  bool built = false;
+
+  // ---- per vertex ----
+  std::vector<unsigned char> alive;   // vertex exists
+  std::vector<unsigned char> moving;  // integrated this step (alive, unpinned, in the local region)
+  std::vector<int> order;             // alive vertices in spatial (Morton) order at the last rebuild
+  std::vector<Vec3> x, xp, x0, v, fext, pred;
+  std::vector<double> w;              // inverse mass used by the model (0 = fixed)
+
+  // ---- stretch: one distance constraint per edge, sorted by colour ----
+  std::vector<int> e_i, e_j;
+  std::vector<Edge> e_handle;
+  std::vector<double> e_rest;
+  std::vector<int> e_color;           // offsets of colour groups: [e_color[k], e_color[k+1])
+
+  // ---- bending: isometric (quadratic) bending per interior edge, sorted by colour ----
+  struct Bend {
+    int v[4];       // edge endpoints a, b and the opposite vertices c, d
+    double g[4];    // sqrt(3 / (A0 + A1)) * K_i, the constant gradient weights
+  };
+  std::vector<Bend> bends;
+  std::vector<int> b_color;
+  std::vector<double> lam_e;          // XPBD multipliers (reset every substep)
+  std::vector<Vec3> lam_b;
+  std::vector<Vec3> force;            // MassSpring: force per vertex
+
+  // ---- faces and adjacency ----
+  std::vector<std::array<int, 3>> tris;
+  std::vector<int> nbr_begin, nbr;    // CSR of vertex neighbours (edges)
+
+  // ---- body collision (candidates gathered once per step, used by every substep) ----
+  const Body* body = nullptr;
+  struct BodyTri {
+    Vec3 a, b, c, n;
+  };
+  std::vector<BodyTri> body_tris;
+  std::vector<Box3> body_boxes;
+  Box3 body_bounds;
+  std::vector<int> cand_start, cand_count, cand;  // per vertex: candidate body triangles
+  std::vector<int> contact_verts;                 // vertices with at least one candidate
+  std::vector<int> scratch;
+
+  // ---- self collision (btDbvt of cloth triangles and of vertices, refitted every step) ----
+  btDbvt tri_tree, vert_tree;
+  std::vector<btDbvtNode*> tri_leaf, vert_leaf;
+  struct SelfPair {
+    int v, t;
+    double side;  // +1 / -1: the side of the triangle the vertex was on at the start of the step
+  };
+  std::vector<SelfPair> self_pairs;
+
+  // ---- diagnostics of the last step ----
+  std::size_t last_body_candidates = 0;
+  std::size_t last_self_pairs = 0;
+};
+
+// Implemented in the model files (Solver::State derives from SolverArrays).
+namespace solver_detail {
+void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const BodyCollider* body, double dt);
+void step_mass_spring(SolverArrays& s, const SolverParams& p, const Material& m, const BodyCollider* body, double dt);
+void rebuild(SolverArrays& s, const Garment& g);
+void set_body(SolverArrays& s, const Body* body);
+void gather_body_candidates(SolverArrays& s, const BodyCollider& collider, double thickness);
+// Pushes vertex i out of the body to `thickness`, on the side it came from (xp), with friction.
+void resolve_body(SolverArrays& s, int i, double thickness, double friction);
+void gather_self_pairs(SolverArrays& s, double thickness);
+void resolve_self(SolverArrays& s, double thickness);
+}  // namespace solver_detail
+
+}  // namespace kiji

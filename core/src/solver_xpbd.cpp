@@ -1,0 +1,109 @@
+// The default model: XPBD with small steps (Macklin et al. 2019, "Small steps in physics
+// simulation"): many substeps per frame, one constraint iteration each.
+//
+//  - stretch: a distance constraint per edge, compliance 1 / k_e with the edge stiffness
+//    k_e = material.stretch_stiffness (N/m). On a regular triangulation this keeps the sheet's
+//    stiffness independent of the resolution (springs in series and in parallel cancel);
+//  - bending: the isometric (quadratic) bending model of Bergou et al. 2006 as a vector constraint
+//    C = sqrt(3 / (A0 + A1)) * sum_i K_i x_i on the four vertices of each interior edge, with
+//    energy (k_b / 2) |C|^2, k_b = material.bending_stiffness (N m): the discrete Willmore energy of
+//    a flat pattern, with a constant gradient, so one projection is a handful of multiply-adds and
+//    needs no trigonometry (a dihedral-angle constraint costs an acos, two cross products and
+//    normalisations per edge, and is singular at flat and folded states);
+//  - damping: velocities decay at material.damping (1/s);
+//  - pins (inverse mass 0), gravity, external forces;
+//  - body collision with the thickness and Coulomb friction, continuous (see solver_collide.cpp);
+//  - self-collision: vertex against cloth triangle at the thickness.
+// Constraints of one colour share no vertex (graph colouring in rebuild), so each colour can be
+// projected in parallel later; serially they are visited colour by colour.
+#include "solver_state.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace kiji::solver_detail {
+
+void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const BodyCollider* body,
+               double dt) {
+  const int substeps = p.substeps;
+  const double h = dt / substeps;
+  const std::size_t n = s.n;
+  const double th = m.thickness;
+  const Vec3 g = p.gravity;
+
+  // Predicted motion over the whole step, for collision culling.
+  for (std::size_t i = 0; i < n; ++i) {
+    s.pred[i] = s.moving[i] ? Vec3(s.v[i] * dt + (g + s.w[i] * s.fext[i]) * (dt * dt)) : Vec3::Zero();
+    s.x0[i] = s.x[i];
+  }
+  if (body && !s.body_tris.empty())
+    gather_body_candidates(s, *body, th);
+  else
+    s.contact_verts.clear();
+  if (p.self_collision)
+    gather_self_pairs(s, th);
+  else
+    s.self_pairs.clear();
+
+  const double damp = std::exp(-m.damping * h);
+  const double alpha_s = 1.0 / (m.stretch_stiffness * h * h);
+  const bool bending = m.bending_stiffness > 0;
+  const double alpha_b = bending ? 1.0 / (m.bending_stiffness * h * h) : 0.0;
+  const int ne = static_cast<int>(s.e_i.size());
+  const int nb = static_cast<int>(s.bends.size());
+  s.lam_e.resize(ne);
+  s.lam_b.resize(nb);
+
+  Vec3* X = s.x.data();
+  const double* W = s.w.data();
+  for (int sub = 0; sub < substeps; ++sub) {
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!s.moving[i]) continue;
+      s.xp[i] = X[i];
+      s.v[i] = (s.v[i] + h * (g + W[i] * s.fext[i])) * damp;
+      X[i] += h * s.v[i];
+    }
+    std::fill(s.lam_e.begin(), s.lam_e.end(), 0.0);
+    if (bending) std::fill(s.lam_b.begin(), s.lam_b.end(), Vec3::Zero());
+    for (int it = 0; it < p.iterations; ++it) {
+      for (int k = 0; k < ne; ++k) {
+        const int i = s.e_i[k], j = s.e_j[k];
+        const double wsum = W[i] + W[j];
+        if (wsum == 0) continue;
+        const Vec3 d = X[i] - X[j];
+        const double len = d.norm();
+        if (!(len > 1e-12)) continue;
+        const double C = len - s.e_rest[k];
+        const double dl = (-C - alpha_s * s.lam_e[k]) / (wsum + alpha_s);
+        s.lam_e[k] += dl;
+        const Vec3 corr = d * (dl / len);
+        X[i] += W[i] * corr;
+        X[j] -= W[j] * corr;
+      }
+      if (bending) {
+        for (int k = 0; k < nb; ++k) {
+          const SolverArrays::Bend& b = s.bends[k];
+          const double w0 = W[b.v[0]], w1 = W[b.v[1]], w2 = W[b.v[2]], w3 = W[b.v[3]];
+          const double wg = w0 * b.g[0] * b.g[0] + w1 * b.g[1] * b.g[1] + w2 * b.g[2] * b.g[2] +
+                            w3 * b.g[3] * b.g[3];
+          if (wg == 0) continue;
+          const Vec3 C = b.g[0] * X[b.v[0]] + b.g[1] * X[b.v[1]] + b.g[2] * X[b.v[2]] + b.g[3] * X[b.v[3]];
+          const Vec3 dl = (-C - alpha_b * s.lam_b[k]) / (wg + alpha_b);
+          s.lam_b[k] += dl;
+          X[b.v[0]] += (w0 * b.g[0]) * dl;
+          X[b.v[1]] += (w1 * b.g[1]) * dl;
+          X[b.v[2]] += (w2 * b.g[2]) * dl;
+          X[b.v[3]] += (w3 * b.g[3]) * dl;
+        }
+      }
+    }
+    if (!s.self_pairs.empty()) resolve_self(s, th);
+    for (int i : s.contact_verts) resolve_body(s, i, th, m.friction);
+    const double inv_h = 1.0 / h;
+    for (std::size_t i = 0; i < n; ++i)
+      if (s.moving[i]) s.v[i] = (X[i] - s.xp[i]) * inv_h;
+  }
+}
+
+}  // namespace kiji::solver_detail

@@ -1,0 +1,51 @@
+// Procedural shapes for the tests: bodies built with Body::from_triangles.
+#pragma once
+
+#include "kiji/body.h"
+
+#include <map>
+#include <utility>
+
+namespace kiji::test {
+
+// An icosphere of the given radius and centre, subdivided `levels` times (20 * 4^levels
+// triangles), wound counter-clockwise seen from outside so normals point outwards.
+inline Body make_sphere(double radius, const Vec3& centre, int levels = 3) {
+  const double t = (1.0 + std::sqrt(5.0)) / 2.0;
+  std::vector<Vec3> v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
+                         {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+  for (auto& p : v) p.normalize();
+  std::vector<std::array<int, 3>> f = {{0, 11, 5}, {0, 5, 1}, {0, 1, 7}, {0, 7, 10}, {0, 10, 11},
+                                       {1, 5, 9}, {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
+                                       {3, 9, 4}, {3, 4, 2}, {3, 2, 6}, {3, 6, 8}, {3, 8, 9},
+                                       {4, 9, 5}, {2, 4, 11}, {6, 2, 10}, {8, 6, 7}, {9, 8, 1}};
+  for (int l = 0; l < levels; ++l) {
+    std::map<std::pair<int, int>, int> mid;
+    auto midpoint = [&](int a, int b) {
+      auto key = std::minmax(a, b);
+      auto it = mid.find(key);
+      if (it != mid.end()) return it->second;
+      v.push_back((v[a] + v[b]).normalized());
+      const int id = static_cast<int>(v.size()) - 1;
+      mid[key] = id;
+      return id;
+    };
+    std::vector<std::array<int, 3>> g;
+    for (const auto& tri : f) {
+      const int a = midpoint(tri[0], tri[1]), b = midpoint(tri[1], tri[2]), c = midpoint(tri[2], tri[0]);
+      g.push_back({tri[0], a, c});
+      g.push_back({tri[1], b, a});
+      g.push_back({tri[2], c, b});
+      g.push_back({a, b, c});
+    }
+    f.swap(g);
+  }
+  for (auto& tri : f) {  // make sure every triangle faces outwards
+    const Vec3 n = (v[tri[1]] - v[tri[0]]).cross(v[tri[2]] - v[tri[0]]);
+    if (n.dot(v[tri[0]] + v[tri[1]] + v[tri[2]]) < 0) std::swap(tri[1], tri[2]);
+  }
+  for (auto& p : v) p = centre + radius * p;
+  return Body::from_triangles(std::move(v), std::move(f), "sphere");
+}
+
+}  // namespace kiji::test

@@ -9,13 +9,13 @@
 
 namespace {
 
-struct Run {
+struct CliRun {  // not "Run": inside a TEST body that name is testing::Test::Run
   int code = -1;
   std::string out;  // stdout and stderr together
 };
 
-Run run(const std::string& args) {
-  Run r;
+CliRun run(const std::string& args) {
+  CliRun r;
   const std::string cmd = std::string(KIJI_CLI) + " " + args + " 2>&1";
   FILE* p = popen(cmd.c_str(), "r");
   if (!p) return r;
@@ -35,7 +35,7 @@ void write(const std::string& path, const std::string& text) { std::ofstream(pat
 
 TEST(Cli, HelpAndUnknownCommand) {
   EXPECT_EQ(run("--help").code, 0);
-  Run r = run("drape --help");
+  CliRun r = run("drape --help");
   EXPECT_EQ(r.code, 0);
   EXPECT_NE(r.out.find("--garment rect:W,H,S"), std::string::npos);
   r = run("frobnicate");
@@ -71,7 +71,7 @@ TEST(Cli, BadInputIsAClearErrorAndANonZeroExit) {
       {"drape --out " + tmp("x.stl"), ".glb or .obj"},
   };
   for (const Case& c : cases) {
-    Run r = run(c.args);
+    CliRun r = run(c.args);
     EXPECT_NE(r.code, 0) << c.args;
     EXPECT_NE(r.code, -1) << c.args << " crashed";
     EXPECT_NE(r.out.find(c.expect), std::string::npos) << c.args << " said: " << r.out;
@@ -82,7 +82,7 @@ TEST(Cli, DrapePrintsJsonAndWritesTheGarmentAndAPicture) {
   const std::string out = tmp("small.glb"), png = tmp("small.png");
   std::filesystem::remove(out);
   std::filesystem::remove(png);
-  Run r = run("drape --garment rect:0.8,0.6,0.04 --seconds 0.5 --json --out " + out + " --picture " + png);
+  CliRun r = run("drape --garment rect:0.8,0.6,0.04 --seconds 0.5 --json --out " + out + " --picture " + png);
   ASSERT_EQ(r.code, 0) << r.out;
   for (const char* field : {"\"vertices\": 336", "\"faces\":", "\"seconds_simulated\": 0.5", "\"wall_seconds\":",
                             "\"max_penetration\":", "\"max_strain\":", "\"kinetic_energy\":", "\"contacts\":"})

@@ -67,6 +67,19 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
     std::fill(s.lam_e.begin(), s.lam_e.end(), 0.0);
     if (bending) std::fill(s.lam_b.begin(), s.lam_b.end(), Vec3::Zero());
     for (int it = 0; it < p.iterations; ++it) {
+      for (std::size_t k = 0; k < s.l_i.size(); ++k) {  // long-range limits, coarse to fine
+        const int i = s.l_i[k], j = s.l_j[k];
+        const double wsum = W[i] + W[j];
+        if (wsum == 0) continue;
+        const Vec3 d = X[i] - X[j];
+        const double len2 = d.squaredNorm();
+        const double rest = s.l_rest[k];
+        if (len2 <= rest * rest) continue;
+        const double len = std::sqrt(len2);
+        const Vec3 corr = d * ((rest - len) / (len * wsum));
+        X[i] += W[i] * corr;
+        X[j] -= W[j] * corr;
+      }
       for (int k = 0; k < ne; ++k) {
         const int i = s.e_i[k], j = s.e_j[k];
         const double wsum = W[i] + W[j];

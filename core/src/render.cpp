@@ -1,0 +1,315 @@
+// The software rasteriser behind render(): perspective camera, z-buffer, smooth normals, a light
+// at the camera with an ambient term, perspective-correct uv for textures.
+#include "kiji/render.h"
+
+#include "kiji/error.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+namespace kiji {
+
+namespace {
+
+constexpr float kAmbient = 0.25f;
+constexpr float kDiffuse = 0.75f;  // ambient + diffuse = 1: a surface facing the camera shows its colour
+constexpr float kNear = 1e-3f;
+const Vec3 kBodyColor{0.42, 0.42, 0.42};
+
+using V2 = Eigen::Vector2f;
+using V3 = Eigen::Vector3f;
+
+float srgb_to_linear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
+float linear_to_srgb(float c) {
+  c = std::clamp(c, 0.0f, 1.0f);
+  return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
+}
+
+struct ColorTables {
+  std::array<float, 256> to_linear;
+  std::array<std::uint8_t, 4097> to_srgb;
+  ColorTables() {
+    for (int i = 0; i < 256; ++i) to_linear[i] = srgb_to_linear(i / 255.0f);
+    for (int i = 0; i <= 4096; ++i)
+      to_srgb[i] = static_cast<std::uint8_t>(std::lround(255.0f * linear_to_srgb(i / 4096.0f)));
+  }
+  std::uint8_t encode(float linear) const {
+    return to_srgb[static_cast<int>(std::clamp(linear, 0.0f, 1.0f) * 4096.0f + 0.5f)];
+  }
+};
+const ColorTables& tables() {
+  static const ColorTables t;
+  return t;
+}
+
+// A corner ready for the rasteriser: camera-space position and normal, and its uv.
+struct Corner {
+  V3 p;  // camera space: x right, y up, z forward (depth)
+  V3 n;
+  V2 uv;
+};
+
+struct View {
+  V3 eye, right, up, forward;
+  float focal = 1, cx = 0, cy = 0;
+  V3 to_camera(const Vec3& w) const {
+    const V3 d = w.cast<float>() - eye;
+    return {d.dot(right), d.dot(up), d.dot(forward)};
+  }
+  V3 dir_to_camera(const Vec3& w) const {
+    const V3 d = w.cast<float>();
+    return {d.dot(right), d.dot(up), d.dot(forward)};
+  }
+};
+
+struct Surface {
+  const Texture* texture = nullptr;  // null: plain colour
+  V3 color;                          // linear
+};
+
+class Raster {
+ public:
+  Raster(int width, int height, const View& view)
+      : w_(width), h_(height), view_(view),
+        depth_(static_cast<std::size_t>(width) * height, 0.0f),
+        color_(static_cast<std::size_t>(width) * height * 3, 0.0f),
+        covered_(static_cast<std::size_t>(width) * height, 0) {}
+
+  // Clips the triangle against the near plane (a fan of at most two triangles), then fills it.
+  void triangle(const Corner& a, const Corner& b, const Corner& c, const Surface& s) {
+    if (a.p.z() >= kNear && b.p.z() >= kNear && c.p.z() >= kNear) return fill(a, b, c, s);
+    const Corner in[3] = {a, b, c};
+    Corner out[4];
+    int n = 0;
+    for (int i = 0; i < 3; ++i) {
+      const Corner& p = in[i];
+      const Corner& q = in[(i + 1) % 3];
+      const bool p_in = p.p.z() >= kNear, q_in = q.p.z() >= kNear;
+      if (p_in) out[n++] = p;
+      if (p_in != q_in) {
+        const float t = (kNear - p.p.z()) / (q.p.z() - p.p.z());
+        out[n++] = Corner{p.p + t * (q.p - p.p), p.n + t * (q.n - p.n), p.uv + t * (q.uv - p.uv)};
+      }
+    }
+    for (int i = 1; i + 1 < n; ++i) fill(out[0], out[i], out[i + 1], s);
+  }
+
+  Image finish() const {
+    Image img;
+    img.width = w_;
+    img.height = h_;
+    img.rgba.resize(static_cast<std::size_t>(w_) * h_ * 4);
+    const ColorTables& ct = tables();
+    for (int y = 0; y < h_; ++y) {
+      // A light neutral gradient, lighter at the top, so any surface stands out against it.
+      const float t = static_cast<float>(y) / std::max(1, h_ - 1);
+      const std::uint8_t bg = static_cast<std::uint8_t>(std::lround(238 - 38 * t));
+      for (int x = 0; x < w_; ++x) {
+        const std::size_t i = static_cast<std::size_t>(y) * w_ + x;
+        std::uint8_t* p = &img.rgba[4 * i];
+        if (covered_[i]) {
+          for (int k = 0; k < 3; ++k) p[k] = ct.encode(color_[3 * i + k]);
+        } else {
+          p[0] = p[1] = bg;
+          p[2] = static_cast<std::uint8_t>(std::min(255, bg + 4));
+        }
+        p[3] = 255;
+      }
+    }
+    return img;
+  }
+
+ private:
+  V3 sample(const Texture& t, V2 uv) const {
+    // Bilinear, clamped at the edges; texture row 0 is v = 0.
+    const float fx = std::clamp(uv.x(), 0.0f, 1.0f) * t.width - 0.5f;
+    const float fy = std::clamp(uv.y(), 0.0f, 1.0f) * t.height - 0.5f;
+    const int x0 = std::clamp(static_cast<int>(std::floor(fx)), 0, t.width - 1);
+    const int y0 = std::clamp(static_cast<int>(std::floor(fy)), 0, t.height - 1);
+    const int x1 = std::min(x0 + 1, t.width - 1), y1 = std::min(y0 + 1, t.height - 1);
+    const float ax = std::clamp(fx - x0, 0.0f, 1.0f), ay = std::clamp(fy - y0, 0.0f, 1.0f);
+    const auto& lin = tables().to_linear;
+    V3 c = V3::Zero();
+    const int xs[2] = {x0, x1}, ys[2] = {y0, y1};
+    const float wx[2] = {1 - ax, ax}, wy[2] = {1 - ay, ay};
+    for (int j = 0; j < 2; ++j)
+      for (int i = 0; i < 2; ++i) {
+        const std::uint8_t* p = t.texel(xs[i], ys[j]);
+        c += wx[i] * wy[j] * V3(lin[p[0]], lin[p[1]], lin[p[2]]);
+      }
+    return c;
+  }
+
+  void fill(const Corner& a, const Corner& b, const Corner& c, const Surface& s) {
+    const Corner* v[3] = {&a, &b, &c};
+    float sx[3], sy[3], iz[3];
+    for (int i = 0; i < 3; ++i) {
+      iz[i] = 1.0f / v[i]->p.z();
+      sx[i] = view_.cx + view_.focal * v[i]->p.x() * iz[i];
+      sy[i] = view_.cy - view_.focal * v[i]->p.y() * iz[i];
+      if (!std::isfinite(sx[i]) || !std::isfinite(sy[i])) return;
+    }
+    const float area = (sx[1] - sx[0]) * (sy[2] - sy[0]) - (sx[2] - sx[0]) * (sy[1] - sy[0]);
+    if (!(std::abs(area) > 1e-12f)) return;
+    const float inv_area = 1.0f / area;
+    const int x_min = std::max(0, static_cast<int>(std::floor(std::min({sx[0], sx[1], sx[2]}))));
+    const int x_max = std::min(w_ - 1, static_cast<int>(std::ceil(std::max({sx[0], sx[1], sx[2]}))));
+    const int y_min = std::max(0, static_cast<int>(std::floor(std::min({sy[0], sy[1], sy[2]}))));
+    const int y_max = std::min(h_ - 1, static_cast<int>(std::ceil(std::max({sy[0], sy[1], sy[2]}))));
+    if (x_min > x_max || y_min > y_max) return;
+
+    // Attributes divided by depth interpolate linearly on screen (perspective-correct).
+    V3 n_z[3];
+    V2 uv_z[3];
+    for (int i = 0; i < 3; ++i) {
+      n_z[i] = v[i]->n * iz[i];
+      uv_z[i] = v[i]->uv * iz[i];
+    }
+    for (int y = y_min; y <= y_max; ++y) {
+      const float py = y + 0.5f;
+      for (int x = x_min; x <= x_max; ++x) {
+        const float px = x + 0.5f;
+        // Barycentric weights from the edge functions; the sign of `area` covers either winding.
+        const float b0 = ((sx[1] - px) * (sy[2] - py) - (sx[2] - px) * (sy[1] - py)) * inv_area;
+        const float b1 = ((sx[2] - px) * (sy[0] - py) - (sx[0] - px) * (sy[2] - py)) * inv_area;
+        const float b2 = 1.0f - b0 - b1;
+        if (b0 < 0 || b1 < 0 || b2 < 0) continue;
+        const float z_inv = b0 * iz[0] + b1 * iz[1] + b2 * iz[2];
+        const std::size_t i = static_cast<std::size_t>(y) * w_ + x;
+        if (z_inv <= depth_[i]) continue;
+        depth_[i] = z_inv;
+        covered_[i] = 1;
+        const float z = 1.0f / z_inv;
+        V3 n = (b0 * n_z[0] + b1 * n_z[1] + b2 * n_z[2]) * z;
+        const float nn = n.norm();
+        // The light sits at the camera: Lambert against the direction back along the pixel's ray.
+        const V3 ray((px - view_.cx) / view_.focal, -(py - view_.cy) / view_.focal, 1.0f);
+        const float lambert = nn > 0 ? std::abs(n.dot(ray)) / (nn * ray.norm()) : 1.0f;  // cloth: both sides
+        V3 albedo = s.color;
+        if (s.texture) albedo = sample(*s.texture, (b0 * uv_z[0] + b1 * uv_z[1] + b2 * uv_z[2]) * z);
+        const V3 c = albedo * (kAmbient + kDiffuse * lambert);
+        color_[3 * i] = c.x();
+        color_[3 * i + 1] = c.y();
+        color_[3 * i + 2] = c.z();
+      }
+    }
+  }
+
+  int w_, h_;
+  View view_;
+  std::vector<float> depth_;  // 1 / depth; 0 = nothing drawn
+  std::vector<float> color_;  // linear RGB
+  std::vector<std::uint8_t> covered_;
+};
+
+View make_view(const Camera& cam, int width, int height) {
+  if (!all_finite(cam.eye) || !all_finite(cam.target) || !all_finite(cam.up))
+    throw InputError("camera has a non-finite eye, target or up: set finite coordinates");
+  if (!(cam.fov_degrees > 0 && cam.fov_degrees < 179)) {
+    std::ostringstream m;
+    m << "camera field of view " << cam.fov_degrees << " degrees is out of range: use 1 to 179";
+    throw InputError(m.str());
+  }
+  const Vec3 f = cam.target - cam.eye;
+  if (!(f.norm() > 0)) throw InputError("camera eye and target are the same point: move the eye back");
+  View v;
+  const Vec3 forward = f.normalized();
+  Vec3 right = forward.cross(cam.up);
+  if (right.norm() < 1e-9 * std::max(1.0, cam.up.norm())) {
+    // Looking straight along `up`: any perpendicular will do.
+    right = forward.cross(std::abs(forward.y()) < 0.9 ? Vec3::UnitY() : Vec3::UnitZ());
+  }
+  right.normalize();
+  const Vec3 up = right.cross(forward);
+  v.eye = cam.eye.cast<float>();
+  v.forward = forward.cast<float>();
+  v.right = right.cast<float>();
+  v.up = up.cast<float>();
+  v.focal = static_cast<float>(0.5 * height / std::tan(0.5 * cam.fov_degrees * M_PI / 180.0));
+  v.cx = 0.5f * width;
+  v.cy = 0.5f * height;
+  return v;
+}
+
+}  // namespace
+
+Camera Camera::framing(const Box3& box) {
+  Camera c;
+  if (box.isEmpty() || !all_finite(box.min()) || !all_finite(box.max())) return c;
+  const Vec3 centre = box.center();
+  const Vec3 half = (0.5 * box.sizes()).cwiseMax(1e-3);
+  // The box's front face fits the vertical field of view, which is the narrower one for images
+  // wider than tall, with a small margin.
+  const double tan_half = std::tan(0.5 * c.fov_degrees * M_PI / 180.0);
+  const double distance = half.z() + 1.08 * std::max(half.x(), half.y()) / tan_half;
+  c.target = centre;
+  c.eye = centre + Vec3(0.0, 0.0, distance);
+  c.up = Vec3::UnitY();
+  return c;
+}
+
+Image render(const std::vector<const Garment*>& garments, const Body* body, const Camera& camera,
+             int width, int height) {
+  if (width < 1 || height < 1 || width > 16384 || height > 16384)
+    throw InputError("image size " + std::to_string(width) + "x" + std::to_string(height) +
+                     " is out of range: use 1 to 16384 pixels a side");
+  for (std::size_t i = 0; i < garments.size(); ++i)
+    if (!garments[i]) throw InputError("garment " + std::to_string(i) + " to render is null");
+  const View view = make_view(camera, width, height);
+  Raster raster(width, height, view);
+
+  if (body) {
+    const auto& vs = body->vertices();
+    std::vector<V3> p(vs.size());
+    std::vector<Vec3> n(vs.size(), Vec3::Zero());
+    for (const auto& t : body->triangles()) {
+      const Vec3 fn = (vs[t[1]] - vs[t[0]]).cross(vs[t[2]] - vs[t[0]]);
+      for (int k = 0; k < 3; ++k) n[t[k]] += fn;
+    }
+    std::vector<V3> nc(vs.size());
+    for (std::size_t i = 0; i < vs.size(); ++i) {
+      p[i] = view.to_camera(vs[i]);
+      nc[i] = view.dir_to_camera(n[i]);
+    }
+    const Surface s{nullptr, kBodyColor.cast<float>()};
+    for (const auto& t : body->triangles())
+      raster.triangle(Corner{p[t[0]], nc[t[0]], V2::Zero()}, Corner{p[t[1]], nc[t[1]], V2::Zero()},
+                      Corner{p[t[2]], nc[t[2]], V2::Zero()}, s);
+  }
+
+  for (const Garment* g : garments) {
+    const Mesh& m = g->mesh();
+    std::vector<V3> p(g->vertex_capacity());
+    std::vector<Vec3> n(g->vertex_capacity(), Vec3::Zero());
+    for (Vertex v : m.vertices()) p[v] = view.to_camera(g->position(v));
+    for (Face f : m.faces()) {
+      const Halfedge h = m.halfedge(f);
+      const Vertex a = m.source(h), b = m.target(h), c = m.target(m.next(h));
+      const Vec3 fn = (g->position(b) - g->position(a)).cross(g->position(c) - g->position(a));
+      n[a] += fn;
+      n[b] += fn;
+      n[c] += fn;
+    }
+    std::vector<V3> nc(n.size());
+    for (Vertex v : m.vertices()) nc[v] = view.dir_to_camera(n[v]);
+    const bool textured = !g->texture().empty() &&
+                          g->texture().rgba.size() == static_cast<std::size_t>(g->texture().width) * g->texture().height * 4;
+    const Surface s{textured ? &g->texture() : nullptr, g->color.cast<float>()};
+    for (Face f : m.faces()) {
+      Corner c[3];
+      int k = 0;
+      for (Halfedge h : CGAL::halfedges_around_face(m.halfedge(f), m)) {
+        if (k == 3) break;
+        const Vertex v = m.target(h);
+        c[k++] = Corner{p[v], nc[v], g->uv(h).cast<float>()};
+      }
+      if (k == 3) raster.triangle(c[0], c[1], c[2], s);
+    }
+  }
+  return raster.finish();
+}
+
+}  // namespace kiji

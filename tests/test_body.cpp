@@ -1,0 +1,374 @@
+// Body import: the default body, other formats, units and up axes, and the errors a user meets.
+#include "kiji/body.h"
+#include "kiji/error.h"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+
+using namespace kiji;
+
+namespace {
+
+const std::string models = KIJI_TEST_MODELS;
+
+std::string tmp_file(const std::string& name, const std::string& text) {
+  std::filesystem::create_directories(KIJI_TEST_TMP);
+  const std::string path = std::string(KIJI_TEST_TMP) + "/" + name;
+  std::ofstream(path, std::ios::binary) << text;
+  return path;
+}
+
+// The message of the InputError that f throws (fails the test if it throws nothing else).
+template <typename F>
+std::string input_error(F&& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "expected an InputError";
+  return {};
+}
+
+// Signed volume of the closed-ish surface: positive when the triangles face outward.
+double signed_volume(const Body& b) {
+  double v = 0;
+  for (const auto& t : b.triangles())
+    v += b.vertices()[t[0]].dot(b.vertices()[t[1]].cross(b.vertices()[t[2]])) / 6.0;
+  return v;
+}
+
+// A tetrahedron 1 x 1 wide and 1.8 tall along +Z, in centimetres, as Collada with Z_UP.
+const char* kZupCentimetreDae = R"(<?xml version="1.0" encoding="utf-8"?>
+<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
+  <asset><unit name="centimeter" meter="0.01"/><up_axis>Z_UP</up_axis></asset>
+  <library_geometries>
+    <geometry id="tet" name="tet"><mesh>
+      <source id="tet-pos"><float_array id="tet-pos-array" count="12">0 0 0 100 0 0 0 100 0 0 0 180</float_array>
+        <technique_common><accessor source="#tet-pos-array" count="4" stride="3">
+          <param name="X" type="float"/><param name="Y" type="float"/><param name="Z" type="float"/>
+        </accessor></technique_common></source>
+      <vertices id="tet-vtx"><input semantic="POSITION" source="#tet-pos"/></vertices>
+      <triangles count="4"><input semantic="VERTEX" source="#tet-vtx" offset="0"/><p>0 2 1 0 1 3 1 2 3 2 0 3</p></triangles>
+    </mesh></geometry>
+  </library_geometries>
+  <library_visual_scenes><visual_scene id="scene"><node id="n" name="n"><instance_geometry url="#tet"/></node></visual_scene></library_visual_scenes>
+  <scene><instance_visual_scene url="#scene"/></scene>
+</COLLADA>
+)";
+
+// The same tetrahedron, 10 x 10 wide and 50 tall along +Z, in inches (2.54 cm), as ASCII FBX.
+const char* kZupInchFbx = R"(; FBX 7.4.0 project file
+FBXHeaderExtension:  {
+	FBXHeaderVersion: 1003
+	FBXVersion: 7400
+	Creator: "Kiji test"
+}
+GlobalSettings:  {
+	Version: 1000
+	Properties70:  {
+		P: "UpAxis", "int", "Integer", "",2
+		P: "UpAxisSign", "int", "Integer", "",1
+		P: "FrontAxis", "int", "Integer", "",1
+		P: "FrontAxisSign", "int", "Integer", "",-1
+		P: "CoordAxis", "int", "Integer", "",0
+		P: "CoordAxisSign", "int", "Integer", "",1
+		P: "UnitScaleFactor", "double", "Number", "",2.54
+	}
+}
+Objects:  {
+	Geometry: 1000, "Geometry::tet", "Mesh" {
+		Vertices: *12 {
+			a: 0,0,0,10,0,0,0,10,0,0,0,50
+		}
+		PolygonVertexIndex: *12 {
+			a: 0,2,-2,0,1,-4,1,2,-4,2,0,-4
+		}
+		GeometryVersion: 124
+	}
+	Model: 2000, "Model::tet", "Mesh" {
+		Version: 232
+	}
+}
+Connections:  {
+	C: "OO",2000,0
+	C: "OO",1000,2000
+}
+)";
+
+}  // namespace
+
+TEST(BodyImport, DefaultPathIsHumanZae) {
+  EXPECT_EQ(Body::default_path(), models + "/Collada/human.zae");
+  EXPECT_TRUE(std::filesystem::is_regular_file(Body::default_path()));
+}
+
+TEST(BodyImport, HumanZaeWeldsSeamsAndIsInMetresYUp) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Body b = Body::load(Body::default_path());
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  std::cout << "human.zae: " << b.vertices().size() << " vertices, " << b.triangles().size()
+            << " triangles, " << b.height() << " m tall, imported in " << ms << " ms\n";
+  // Collada splits vertices at uv and normal seams; after welding the body is one surface.
+  EXPECT_EQ(b.vertices().size(), 14444u);
+  EXPECT_EQ(b.triangles().size(), 28796u);
+  EXPECT_GT(b.report().vertices_before_weld, b.vertices().size());
+  EXPECT_EQ(b.report().meshes_merged, 2u) << "the body and its eyes";
+  EXPECT_NEAR(b.height(), 1.66, 0.01);
+  EXPECT_EQ(b.report().up, Axis::PosY);
+  EXPECT_DOUBLE_EQ(b.report().scale, 1.0);
+  EXPECT_EQ(b.report().up_source, "file metadata");
+  EXPECT_NE(b.report().format.find("Collada"), std::string::npos) << b.report().format;
+  EXPECT_EQ(b.name(), "human");
+  const Box3 box = b.bounds();
+  EXPECT_DOUBLE_EQ(box.min().y(), 0.0) << "feet on the floor";
+  EXPECT_NEAR(box.center().x(), 0.0, 1e-12);
+  EXPECT_NEAR(box.center().z(), 0.0, 1e-12);
+  // A-pose: wider than deep, taller than wide.
+  EXPECT_GT(box.sizes().x(), 2 * box.sizes().z());
+  EXPECT_GT(box.sizes().y(), box.sizes().x());
+  EXPECT_GT(signed_volume(b), 0.03) << "triangles must face outward (a person is about 0.06 m^3)";
+}
+
+TEST(BodyImport, HumanFacesPlusZ) {
+  Body b = Body::load(Body::default_path());
+  // Toes reach far forward of the ankles, heels only a little behind them.
+  double shin_z = 0, toe = -1e9, heel = 1e9;
+  int shin_n = 0;
+  for (const Vec3& p : b.vertices()) {
+    if (p.y() > 0.12 && p.y() < 0.2) shin_z += p.z(), ++shin_n;
+    if (p.y() < 0.04) toe = std::max(toe, p.z()), heel = std::min(heel, p.z());
+  }
+  ASSERT_GT(shin_n, 0);
+  shin_z /= shin_n;
+  EXPECT_GT(toe - shin_z, 2 * (shin_z - heel)) << "toe " << toe << " heel " << heel << " shin " << shin_z;
+}
+
+TEST(BodyImport, WithoutRecenterKeepsFilePlacement) {
+  BodyImportOptions o;
+  o.recenter = false;
+  Body b = Body::load(Body::default_path(), o);
+  // The file already stands the body near the origin; only x/z centring and feet differ.
+  EXPECT_NEAR(b.bounds().min().y(), 0.0005, 1e-3);
+  EXPECT_NEAR(b.height(), 1.66, 0.01);
+}
+
+TEST(BodyImport, SameModelInObjPlyStlGivesSameSurface) {
+  // Wuson in three formats; STL stores every triangle's corners separately, so it only matches
+  // the others once welded.
+  Body obj = Body::load(models + "/OBJ/WusonOBJ.obj");
+  Body ply = Body::load(models + "/PLY/Wuson.ply");
+  Body stl = Body::load(models + "/STL/Wuson.stl");
+  EXPECT_EQ(stl.report().vertices_before_weld, 3 * stl.triangles().size());
+  for (const Body* b : {&ply, &stl}) {
+    EXPECT_EQ(b->vertices().size(), obj.vertices().size()) << b->report().format;
+    EXPECT_EQ(b->triangles().size(), obj.triangles().size()) << b->report().format;
+    EXPECT_TRUE(b->bounds().min().isApprox(obj.bounds().min(), 1e-5)) << b->report().format;
+    EXPECT_TRUE(b->bounds().max().isApprox(obj.bounds().max(), 1e-5)) << b->report().format;
+  }
+  EXPECT_NEAR(obj.height(), 1.5158, 1e-3);
+  EXPECT_EQ(obj.report().scale_source, "default (metres)");
+  EXPECT_EQ(obj.report().up_source, "default (+Y)");
+}
+
+TEST(BodyImport, GlbCubeWeldsToEightCorners) {
+  // glTF stores 24 corners (4 a side, for normals and uvs); a body only needs the 8 corners.
+  Body b = Body::load(models + "/glTF2/BoxTextured-glTF-Binary/BoxTextured.glb");
+  EXPECT_EQ(b.vertices().size(), 8u);
+  EXPECT_EQ(b.triangles().size(), 12u);
+  EXPECT_EQ(b.report().vertices_before_weld, 24u);
+  EXPECT_NEAR(b.height(), 1.0, 1e-6);
+  EXPECT_NEAR(signed_volume(b), 1.0, 1e-6);
+  EXPECT_NE(b.report().format.find("glTF"), std::string::npos) << b.report().format;
+}
+
+TEST(BodyImport, FbxCentimetresFromMetadata) {
+  // The same spider as OBJ (no units) and as FBX in centimetres (UnitScaleFactor 1, coordinates
+  // 100 times larger): the FBX's metadata brings it to the same size.
+  Body obj = Body::load(models + "/OBJ/spider.obj");
+  Body fbx = Body::load(models + "/FBX/spider.fbx");
+  EXPECT_EQ(fbx.report().scale_source, "file metadata");
+  EXPECT_NEAR(fbx.report().scale, 0.01, 1e-9);
+  EXPECT_EQ(fbx.report().up_source, "file metadata");
+  EXPECT_EQ(fbx.report().up, Axis::PosY);
+  EXPECT_NEAR(fbx.height(), obj.height(), 1e-3 * obj.height());
+  EXPECT_TRUE(fbx.bounds().sizes().isApprox(obj.bounds().sizes(), 1e-4));
+  EXPECT_EQ(fbx.triangles().size(), obj.triangles().size());
+}
+
+TEST(BodyImport, FbxMetresFromMetadata) {
+  Body raw = Body::load(models + "/FBX/global_settings.fbx", [] {
+    BodyImportOptions o;
+    o.scale = 1.0;
+    return o;
+  }());
+  Body b = Body::load(models + "/FBX/global_settings.fbx");  // UnitScaleFactor 500: 5 m a unit
+  EXPECT_NEAR(b.report().scale, 5.0, 1e-6);
+  EXPECT_EQ(raw.report().scale_source, "option");
+  EXPECT_NEAR(b.height(), 5.0 * raw.height(), 1e-6 * b.height());
+}
+
+TEST(BodyImport, ColladaZUpCentimetresFromMetadata) {
+  const std::string path = tmp_file("zup_cm.dae", kZupCentimetreDae);
+  Body b = Body::load(path);
+  EXPECT_EQ(b.report().up, Axis::PosZ);
+  EXPECT_EQ(b.report().up_source, "file metadata");
+  EXPECT_NEAR(b.report().scale, 0.01, 1e-9);
+  EXPECT_EQ(b.report().scale_source, "file metadata");
+  // 180 cm along the file's +Z is 1.8 m along +Y, applied once, not twice.
+  EXPECT_NEAR(b.height(), 1.8, 1e-6);
+  EXPECT_NEAR(b.bounds().sizes().x(), 1.0, 1e-6);
+  EXPECT_NEAR(b.bounds().sizes().z(), 1.0, 1e-6);
+  EXPECT_GT(signed_volume(b), 0) << "a rotation must keep the triangles facing out";
+}
+
+TEST(BodyImport, FbxZUpInchesFromMetadata) {
+  // assimp reads FBX's UpAxis and UnitScaleFactor into metadata without applying them.
+  Body b = Body::load(tmp_file("zup_inch.fbx", kZupInchFbx));
+  EXPECT_EQ(b.report().up, Axis::PosZ);
+  EXPECT_EQ(b.report().up_source, "file metadata");
+  EXPECT_NEAR(b.report().scale, 0.0254, 1e-7);
+  EXPECT_NEAR(b.height(), 1.27, 1e-6);
+  EXPECT_NEAR(b.bounds().sizes().x(), 0.254, 1e-6);
+  EXPECT_NEAR(b.bounds().sizes().z(), 0.254, 1e-6);
+  EXPECT_GT(signed_volume(b), 0);
+}
+
+TEST(BodyImport, OptionsOverrideColladaMetadata) {
+  const std::string path = tmp_file("zup_cm_override.dae", kZupCentimetreDae);
+  BodyImportOptions o;
+  o.up = Axis::PosY;  // the user says the file's +Y is up after all
+  o.scale = 0.001;    // and that its unit is the millimetre
+  Body b = Body::load(path, o);
+  EXPECT_EQ(b.report().up_source, "option");
+  EXPECT_EQ(b.report().scale_source, "option");
+  EXPECT_NEAR(b.height(), 0.1, 1e-9);                 // the file's y extent, 100 mm
+  EXPECT_NEAR(b.bounds().sizes().z(), 0.18, 1e-9);    // its z extent, 180 mm
+}
+
+TEST(BodyImport, ZUpBlendFixedByOptions) {
+  // HUMAN.blend stands 10.7 units tall along +Z and says nothing about units: a user fixes it.
+  Body plain = Body::load(models + "/BLEND/HUMAN.blend");
+  EXPECT_EQ(plain.report().up_source, "default (+Y)");
+  EXPECT_LT(plain.height(), plain.bounds().sizes().z()) << "read as +Y up, it lies on its back";
+
+  BodyImportOptions o;
+  o.up = parse_axis("z");
+  o.height = 1.75;
+  Body b = Body::load(models + "/BLEND/HUMAN.blend", o);
+  EXPECT_EQ(b.report().up, Axis::PosZ);
+  EXPECT_EQ(b.report().up_source, "option");
+  EXPECT_EQ(b.report().scale_source, "height option");
+  EXPECT_NEAR(b.height(), 1.75, 1e-9);
+  EXPECT_NEAR(b.report().scale, 1.75 / plain.bounds().sizes().z(), 1e-6);
+  EXPECT_GT(b.bounds().sizes().y(), b.bounds().sizes().x());
+  EXPECT_GT(b.bounds().sizes().x(), b.bounds().sizes().z());
+  EXPECT_DOUBLE_EQ(b.bounds().min().y(), 0.0);
+}
+
+TEST(BodyImport, ZUpMillimetreObjFixedByOptions) {
+  // A 400 x 300 mm base, 1700 mm tall along -Z (upside down), no metadata in OBJ.
+  const std::string path = tmp_file("negz_mm.obj",
+                                    "v 0 0 0\nv 400 0 0\nv 0 300 0\nv 0 0 -1700\n"
+                                    "f 1 2 3\nf 1 4 2\nf 2 4 3\nf 3 4 1\n");
+  BodyImportOptions o;
+  o.up = Axis::NegZ;
+  o.scale = 0.001;
+  Body b = Body::load(path, o);
+  EXPECT_NEAR(b.height(), 1.7, 1e-9);
+  EXPECT_NEAR(b.bounds().sizes().x(), 0.4, 1e-9);
+  EXPECT_NEAR(b.bounds().sizes().z(), 0.3, 1e-9);
+  EXPECT_EQ(b.vertices().size(), 4u);
+}
+
+TEST(BodyImport, DropsDegenerateTriangles) {
+  const std::string path = tmp_file("degenerate.obj",
+                                    "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nv 0 0 0\n"
+                                    "f 1 2 3\nf 1 2 4\nf 1 5 3\n");  // a line, and a repeated corner
+  Body b = Body::load(path);
+  EXPECT_EQ(b.triangles().size(), 1u);
+  EXPECT_EQ(b.vertices().size(), 3u) << "unused vertices go too";
+}
+
+TEST(BodyImportErrors, MissingFile) {
+  const std::string msg = input_error([] { Body::load("/nonexistent/body.obj"); });
+  EXPECT_NE(msg.find("/nonexistent/body.obj"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("does not exist"), std::string::npos) << msg;
+}
+
+TEST(BodyImportErrors, Directory) {
+  const std::string msg = input_error([] { Body::load(models + "/OBJ"); });
+  EXPECT_NE(msg.find("directory"), std::string::npos) << msg;
+}
+
+TEST(BodyImportErrors, EmptyFile) {
+  const std::string path = tmp_file("empty.obj", "");
+  const std::string msg = input_error([&] { Body::load(path); });
+  EXPECT_NE(msg.find("empty"), std::string::npos) << msg;
+}
+
+TEST(BodyImportErrors, UnknownFormatCarriesAssimpReason) {
+  const std::string path = tmp_file("notes.xyz", "this is not a mesh\n");
+  const std::string msg = input_error([&] { Body::load(path); });
+  EXPECT_NE(msg.find("notes.xyz"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("assimp cannot read it"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("No suitable reader"), std::string::npos) << msg;
+}
+
+TEST(BodyImportErrors, CorruptFileOfKnownFormat) {
+  const std::string path = tmp_file("corrupt.glb", std::string("glTF\x02\x00\x00\x00garbage", 15));
+  const std::string msg = input_error([&] { Body::load(path); });
+  EXPECT_NE(msg.find("assimp cannot read it"), std::string::npos) << msg;
+}
+
+TEST(BodyImportErrors, LinesOnlyAndPointsOnlyHaveNoTriangles) {
+  for (const char* f : {"/OBJ/testline.obj", "/OBJ/testpoints.obj"}) {
+    const std::string msg = input_error([&] { Body::load(models + f); });
+    EXPECT_NE(msg.find("no triangles"), std::string::npos) << msg;
+    EXPECT_NE(msg.find(f), std::string::npos) << msg;
+  }
+}
+
+TEST(BodyImportErrors, NanAndInfCoordinates) {
+  // assimp parses "nan" and "inf" in OBJ as numbers; the import must refuse them.
+  const std::string nan_path = tmp_file("nan.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n");
+  const std::string inf_path = tmp_file("inf.obj", "v 0 0 0\nv 1 0 0\nv 0 inf 0\nf 1 2 3\n");
+  for (const std::string& p : {nan_path, inf_path}) {
+    const std::string msg = input_error([&] { Body::load(p); });
+    EXPECT_NE(msg.find("non-finite"), std::string::npos) << msg;
+    EXPECT_NE(msg.find(p), std::string::npos) << msg;
+  }
+}
+
+TEST(BodyImportErrors, InfinitiesInAGlb) {
+  const std::string path = models + "/glTF2/BoxWithInfinites-glTF-Binary/BoxWithInfinites.glb";
+  const std::string msg = input_error([&] { Body::load(path); });
+  EXPECT_NE(msg.find("non-finite coordinate (-inf"), std::string::npos) << msg;
+}
+
+TEST(BodyImportErrors, BadOptionValues) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  for (double v : {0.0, -1.0, nan, inf}) {
+    BodyImportOptions s;
+    s.scale = v;
+    EXPECT_NE(input_error([&] { Body::load(Body::default_path(), s); }).find("scale option"), std::string::npos) << v;
+    BodyImportOptions h;
+    h.height = v;
+    EXPECT_NE(input_error([&] { Body::load(Body::default_path(), h); }).find("height option"), std::string::npos) << v;
+  }
+}
+
+TEST(BodyImportErrors, HeightOfAFlatBody) {
+  // A flat sheet in the x/z plane read as +Y up has no height to scale.
+  const std::string path = tmp_file("flat.obj", "v 0 0 0\nv 1 0 0\nv 0 0 1\nf 1 3 2\n");
+  BodyImportOptions o;
+  o.height = 1.7;
+  const std::string msg = input_error([&] { Body::load(path, o); });
+  EXPECT_NE(msg.find("flat"), std::string::npos) << msg;
+}

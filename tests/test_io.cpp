@@ -1,0 +1,285 @@
+// Garment files: .glb and .obj round trips (positions, uv seams, colour, texture) and errors.
+#include "kiji/body.h"
+#include "kiji/error.h"
+#include "kiji/io.h"
+#include "kiji/pattern.h"
+#include "kiji/render.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+using namespace kiji;
+
+namespace {
+
+std::string tmp_path(const std::string& name) {
+  std::filesystem::create_directories(KIJI_TEST_TMP);
+  return std::string(KIJI_TEST_TMP) + "/" + name;
+}
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+template <typename F>
+std::string input_error(F&& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "expected an InputError";
+  return {};
+}
+
+// A 1 x 0.5 m rectangle, 5 x 3 vertices, draped a little out of plane, with a uv seam down the
+// middle column: the left half's uvs are shifted, so each vertex of x = 0.5 has two uvs.
+Garment seamed_garment() {
+  Garment g = make_rectangle(1.0, 0.5, 5, 3);
+  g.name = "skirt";
+  g.color = Vec3(0.1, 0.6, 0.3);
+  const Mesh& m = g.mesh();
+  for (Vertex v : m.vertices()) {
+    Vec3 p = g.position(v);
+    p.z() = 0.1 * std::sin(3 * p.x()) + 0.05 * p.y();
+    g.set_position(v, p);
+  }
+  for (Face f : m.faces()) {
+    double cx = 0;
+    for (Vertex v : CGAL::vertices_around_face(m.halfedge(f), m)) cx += g.position(v).x() / 3;
+    if (cx < 0.5)
+      for (Halfedge h : CGAL::halfedges_around_face(m.halfedge(f), m)) g.set_uv(h, g.uv(h) + Vec2(0.25, 0.125));
+  }
+  return g;
+}
+
+// 7 x 5 texels, every one different, so a flipped or transposed image cannot pass.
+Texture test_texture() {
+  Texture t = Texture::filled(7, 5, 0, 0, 0);
+  for (int y = 0; y < t.height; ++y)
+    for (int x = 0; x < t.width; ++x) {
+      std::uint8_t* p = t.texel(x, y);
+      p[0] = static_cast<std::uint8_t>(30 * x + 1);
+      p[1] = static_cast<std::uint8_t>(50 * y + 2);
+      p[2] = static_cast<std::uint8_t>(7 * x * y + 3);
+      p[3] = static_cast<std::uint8_t>(255 - 10 * x - y);
+    }
+  return t;
+}
+
+std::size_t count_uv_corners(const Garment& g) {
+  std::set<std::tuple<std::size_t, double, double>> s;
+  for (Face f : g.mesh().faces())
+    for (Halfedge h : CGAL::halfedges_around_face(g.mesh().halfedge(f), g.mesh()))
+      s.emplace(g.mesh().target(h).idx(), g.uv(h).x(), g.uv(h).y());
+  return s.size();
+}
+
+// Every face of `b` matches a face of `a` with the same corner positions and uvs (float precision).
+void expect_same_surface(const Garment& a, const Garment& b) {
+  ASSERT_EQ(a.mesh().number_of_vertices(), b.mesh().number_of_vertices());
+  ASSERT_EQ(a.mesh().number_of_faces(), b.mesh().number_of_faces());
+  ASSERT_EQ(a.mesh().number_of_edges(), b.mesh().number_of_edges());
+  // Match vertices by position.
+  auto key = [](const Vec3& p) {
+    return std::make_tuple(std::llround(p.x() * 1e5), std::llround(p.y() * 1e5), std::llround(p.z() * 1e5));
+  };
+  std::map<std::tuple<long long, long long, long long>, Vertex> by_pos;
+  for (Vertex v : a.mesh().vertices()) by_pos[key(a.position(v))] = v;
+  ASSERT_EQ(by_pos.size(), a.mesh().number_of_vertices());
+  std::map<Vertex, Vertex> b_to_a;
+  for (Vertex v : b.mesh().vertices()) {
+    auto it = by_pos.find(key(b.position(v)));
+    ASSERT_NE(it, by_pos.end()) << "vertex at " << b.position(v).transpose() << " is not in the original";
+    EXPECT_TRUE(b.position(v).isApprox(a.position(it->second), 1e-6));
+    b_to_a[v] = it->second;
+  }
+  // Faces by their vertex set; corner uv by vertex.
+  std::map<std::set<Vertex>, std::map<Vertex, Vec2>> faces_a;
+  for (Face f : a.mesh().faces()) {
+    std::map<Vertex, Vec2> corners;
+    for (Halfedge h : CGAL::halfedges_around_face(a.mesh().halfedge(f), a.mesh())) corners[a.mesh().target(h)] = a.uv(h);
+    std::set<Vertex> vs;
+    for (auto& c : corners) vs.insert(c.first);
+    faces_a[vs] = corners;
+  }
+  for (Face f : b.mesh().faces()) {
+    std::set<Vertex> vs;
+    for (Vertex v : CGAL::vertices_around_face(b.mesh().halfedge(f), b.mesh())) vs.insert(b_to_a[v]);
+    auto it = faces_a.find(vs);
+    ASSERT_NE(it, faces_a.end()) << "a face of the file is not in the original";
+    for (Halfedge h : CGAL::halfedges_around_face(b.mesh().halfedge(f), b.mesh())) {
+      const Vec2 uv_a = it->second.at(b_to_a[b.mesh().target(h)]);
+      EXPECT_NEAR(b.uv(h).x(), uv_a.x(), 1e-6);
+      EXPECT_NEAR(b.uv(h).y(), uv_a.y(), 1e-6);
+    }
+  }
+  // Rest lengths are the lengths in the file.
+  for (Edge e : b.mesh().edges()) EXPECT_NEAR(b.rest_length(e), b.length(e), 1e-12);
+}
+
+void expect_same_texture(const Texture& a, const Texture& b) {
+  ASSERT_EQ(a.width, b.width);
+  ASSERT_EQ(a.height, b.height);
+  for (int y = 0; y < a.height; ++y)
+    for (int x = 0; x < a.width; ++x)
+      for (int c = 0; c < 4; ++c) ASSERT_EQ(a.texel(x, y)[c], b.texel(x, y)[c]) << "texel " << x << "," << y;
+}
+
+}  // namespace
+
+TEST(GarmentFiles, SeamedGarmentHasTwoUvsOnTheSeam) {
+  Garment g = seamed_garment();
+  EXPECT_EQ(count_uv_corners(g), g.mesh().number_of_vertices() + 3) << "the 3 seam vertices carry two uvs";
+}
+
+TEST(GarmentFiles, GlbRoundTripKeepsPositionsUvSeamsAndColour) {
+  const Garment g = seamed_garment();
+  const std::string path = tmp_path("skirt.glb");
+  export_garment(g, path);
+  Garment back = import_garment(path);
+  expect_same_surface(g, back);
+  EXPECT_EQ(count_uv_corners(back), count_uv_corners(g)) << "the seam stays one vertex with two uvs";
+  EXPECT_TRUE(back.color.isApprox(g.color, 1e-6)) << back.color.transpose();
+  EXPECT_TRUE(back.texture().empty());
+  EXPECT_EQ(back.name, "skirt");
+  EXPECT_TRUE(back.is_valid());
+  EXPECT_EQ(back.count_pieces(), 1u);
+}
+
+TEST(GarmentFiles, ObjRoundTripKeepsPositionsUvSeamsAndColour) {
+  const Garment g = seamed_garment();
+  const std::string path = tmp_path("skirt.obj");
+  export_garment(g, path);
+  Garment back = import_garment(path);
+  expect_same_surface(g, back);
+  EXPECT_EQ(count_uv_corners(back), count_uv_corners(g));
+  EXPECT_TRUE(back.color.isApprox(g.color, 1e-6)) << back.color.transpose();
+  const std::string mtl = slurp(tmp_path("skirt.mtl"));
+  const auto kd = mtl.find("Kd ");
+  ASSERT_NE(kd, std::string::npos) << mtl;
+  std::istringstream in(mtl.substr(kd + 3));
+  Vec3 c;
+  in >> c.x() >> c.y() >> c.z();
+  EXPECT_TRUE(c.isApprox(g.color, 1e-6)) << mtl;
+  EXPECT_EQ(mtl.find("map_Kd"), std::string::npos) << "no texture, no map";
+}
+
+TEST(GarmentFiles, GlbEmbedsTheTextureAsPng) {
+  Garment g = seamed_garment();
+  g.texture() = test_texture();
+  const std::string path = tmp_path("painted.glb");
+  export_garment(g, path);
+  const std::string bytes = slurp(path);
+  ASSERT_GT(bytes.size(), 20u);
+  EXPECT_EQ(bytes.substr(0, 4), "glTF");
+  EXPECT_EQ(static_cast<int>(bytes[4]), 2) << "glTF version 2";
+  EXPECT_NE(bytes.find("image/png"), std::string::npos);
+  EXPECT_NE(bytes.find("\x89PNG"), std::string::npos) << "the PNG is inside the .glb";
+  EXPECT_FALSE(std::filesystem::exists(tmp_path("painted.png"))) << "nothing written beside a .glb";
+
+  Garment back = import_garment(path);
+  expect_same_surface(g, back);
+  expect_same_texture(g.texture(), back.texture());
+}
+
+TEST(GarmentFiles, ObjWritesThePngBesideAndReadsItBack) {
+  Garment g = seamed_garment();
+  g.texture() = test_texture();
+  const std::string path = tmp_path("painted_obj.obj");
+  std::filesystem::remove(tmp_path("painted_obj.png"));
+  export_garment(g, path);
+  ASSERT_TRUE(std::filesystem::exists(tmp_path("painted_obj.png")));
+  const std::string mtl = slurp(tmp_path("painted_obj.mtl"));
+  EXPECT_NE(mtl.find("map_Kd painted_obj.png"), std::string::npos) << mtl;
+
+  Garment back = import_garment(path);
+  expect_same_surface(g, back);
+  expect_same_texture(g.texture(), back.texture());
+}
+
+TEST(GarmentFiles, TextureRowsFollowUv) {
+  // Texture row 0 is v = 0, and viewers put v = 0 at the bottom of the image: the PNG beside the
+  // OBJ, read as a plain image (row 0 at the top), must hold texture row 0 as its last row.
+  Garment g = seamed_garment();
+  g.texture() = test_texture();
+  export_garment(g, tmp_path("rows.obj"));
+  const Image png = read_png(tmp_path("rows.png"));
+  ASSERT_EQ(png.width, g.texture().width);
+  ASSERT_EQ(png.height, g.texture().height);
+  for (int y = 0; y < png.height; ++y)
+    for (int x = 0; x < png.width; ++x)
+      for (int c = 0; c < 4; ++c)
+        ASSERT_EQ(png.rgba[4 * ((png.height - 1 - y) * png.width + x) + c], g.texture().texel(x, y)[c]);
+}
+
+TEST(GarmentFiles, ExportedFilesAreReadableByAssimp) {
+  // Body::load goes through assimp with no Kiji-specific reading: the files must be plain glTF/OBJ.
+  const Garment g = seamed_garment();
+  for (const char* name : {"plain.glb", "plain.obj"}) {
+    export_garment(g, tmp_path(name));
+    BodyImportOptions o;
+    o.recenter = false;
+    Body b = Body::load(tmp_path(name), o);
+    EXPECT_EQ(b.triangles().size(), g.mesh().number_of_faces()) << name;
+    EXPECT_EQ(b.vertices().size(), g.mesh().number_of_vertices()) << name;
+    EXPECT_TRUE(b.bounds().min().isApprox(g.bounds().min(), 1e-6)) << name;
+    EXPECT_TRUE(b.bounds().max().isApprox(g.bounds().max(), 1e-6)) << name;
+  }
+}
+
+TEST(GarmentFiles, ReadsAThirdPartyGlbWithEmbeddedTexture) {
+  // Khronos' textured box: 24 corners over 8 positions, so every vertex carries several uvs.
+  Garment g = import_garment(std::string(KIJI_TEST_MODELS) + "/glTF2/BoxTextured-glTF-Binary/BoxTextured.glb");
+  EXPECT_EQ(g.mesh().number_of_vertices(), 8u);
+  EXPECT_EQ(g.mesh().number_of_faces(), 12u);
+  EXPECT_TRUE(g.is_valid());
+  EXPECT_FALSE(g.texture().empty()) << "its embedded PNG is read";
+  for (Edge e : g.mesh().edges()) EXPECT_NEAR(g.rest_length(e), g.length(e), 1e-12);
+}
+
+TEST(GarmentFileErrors, UnknownExtension) {
+  const Garment g = seamed_garment();
+  const std::string msg = input_error([&] { export_garment(g, tmp_path("skirt.stl")); });
+  EXPECT_NE(msg.find("unknown extension '.stl'"), std::string::npos) << msg;
+  EXPECT_NE(msg.find(".glb"), std::string::npos) << msg;
+  const std::string msg2 = input_error([&] { import_garment(tmp_path("skirt.fbx")); });
+  EXPECT_NE(msg2.find("unknown extension"), std::string::npos) << msg2;
+}
+
+TEST(GarmentFileErrors, UnwritablePath) {
+  const Garment g = seamed_garment();
+  for (const char* p : {"/nonexistent-folder/skirt.glb", "/nonexistent-folder/skirt.obj"}) {
+    const std::string msg = input_error([&] { export_garment(g, p); });
+    EXPECT_NE(msg.find(p), std::string::npos) << msg;
+    EXPECT_NE(msg.find("cannot be written"), std::string::npos) << msg;
+  }
+  const std::string dir = tmp_path("a_folder.glb");
+  std::filesystem::create_directories(dir);
+  EXPECT_NE(input_error([&] { export_garment(g, dir); }).find("directory"), std::string::npos);
+}
+
+TEST(GarmentFileErrors, MissingEmptyAndBrokenFiles) {
+  EXPECT_NE(input_error([] { import_garment("/nonexistent/skirt.glb"); }).find("does not exist"), std::string::npos);
+  const std::string empty = tmp_path("empty.glb");
+  std::ofstream(empty).close();
+  EXPECT_NE(input_error([&] { import_garment(empty); }).find("empty"), std::string::npos);
+  const std::string broken = tmp_path("broken.glb");
+  std::ofstream(broken, std::ios::binary) << "glTF this is not a real file";
+  EXPECT_NE(input_error([&] { import_garment(broken); }).find("assimp cannot read it"), std::string::npos);
+  const std::string lines = std::string(KIJI_TEST_MODELS) + "/OBJ/testline.obj";
+  EXPECT_NE(input_error([&] { import_garment(lines); }).find("no triangles"), std::string::npos);
+}
+
+TEST(GarmentFileErrors, EmptyGarmentIsNotExported) {
+  Garment g;
+  EXPECT_NE(input_error([&] { export_garment(g, tmp_path("nothing.glb")); }).find("no faces"), std::string::npos);
+}

@@ -45,9 +45,9 @@ TEST(Xpbd, ClothPinnedAtTwoCornersSettlesWithSmallStrain) {
   g.set_pinned(c1, true);
   const Vec3 p0 = g.position(c0), p1 = g.position(c1);
   Solver solver;
-  run(solver, g, 8.0);
+  run(solver, g, 15.0);
   const ClothMeasures m = solver.measure(g);
-  EXPECT_LT(m.kinetic_energy, 1e-5) << "settled (J)";
+  EXPECT_LT(m.kinetic_energy, 1e-6) << "settled (J; it released about 0.7 J falling)";
   EXPECT_LT(m.max_strain, 0.05);
   EXPECT_LT(m.mean_strain, 0.01);
   EXPECT_EQ(g.position(c0), p0);
@@ -58,27 +58,40 @@ TEST(Xpbd, ClothPinnedAtTwoCornersSettlesWithSmallStrain) {
   EXPECT_GT(far.y(), 1.5 - 1.1);
 }
 
-TEST(Xpbd, BendingStiffnessHoldsACantileverUp) {
-  // A strip clamped along one short edge (two rows pinned) droops under gravity; a stiffer fabric
-  // droops less. Without bending stiffness it hangs straight down.
-  auto tip_height = [](double kb) {
+TEST(Xpbd, BendingStiffnessUnbendsACurledStrip) {
+  // A flat 20 cm strip curled into a half cylinder, in zero gravity: with bending rigidity it
+  // springs back towards flat, the stiffer the sooner; without, it stays curled. Measured: the
+  // time until the ends are 18 cm apart (90 % of flat), within 2 s.
+  auto time_to_unbend = [](double kb, double& closest_to_curl) {
     Material mat;
     mat.bending_stiffness = kb;
-    mat.damping = 2.0;
-    Garment g = make_rectangle(0.3, 0.1, 31, 11, mat);
+    Garment g = make_rectangle(0.2, 0.05, 41, 11, mat);
+    const double R = 0.2 / M_PI;
     for (Vertex v : g.mesh().vertices()) {
       const Vec3 q = g.position(v);
-      g.set_position(v, Vec3(q.x(), 1.0, q.y()));
-      if (q.x() < 0.015) g.set_pinned(v, true);
+      g.set_position(v, Vec3(R * std::sin(q.x() / R), R * (1 - std::cos(q.x() / R)), q.y()));
     }
-    Solver solver;
-    run(solver, g, 3.0);
-    return g.position(Vertex(5 * 31 + 30)).y();
+    SolverParams p;
+    p.gravity = Vec3::Zero();
+    Solver solver(p);
+    closest_to_curl = 0;
+    for (int step = 1; step <= 120; ++step) {
+      solver.step(g, 1.0 / 60);
+      const double d = (g.position(Vertex(5 * 41 + 40)) - g.position(Vertex(5 * 41))).norm();
+      closest_to_curl = std::max(closest_to_curl, std::abs(d - 2 * R));
+      EXPECT_LT(d, 0.2 + 1e-3) << "never longer than the strip";
+      if (d > 0.18) return step / 60.0;
+    }
+    EXPECT_LT(solver.measure(g).max_strain, 0.05) << "k_b = " << kb;
+    return 1e9;
   };
-  const double none = tip_height(0.0), soft = tip_height(2e-5), stiff = tip_height(2e-3);
-  EXPECT_LT(none, 1.0 - 0.25);
-  EXPECT_GT(soft, none);
-  EXPECT_GT(stiff, soft + 0.02);
+  double drift_none = 0, drift = 0;
+  const double none = time_to_unbend(0.0, drift_none);
+  const double soft = time_to_unbend(2e-5, drift), stiff = time_to_unbend(2e-4, drift);
+  EXPECT_EQ(none, 1e9) << "nothing unbends it";
+  EXPECT_LT(drift_none, 0.01) << "it stays curled";
+  EXPECT_LT(soft, 2.0);
+  EXPECT_LT(stiff, soft) << "stiffer fabric springs back sooner";
 }
 
 TEST(Xpbd, ClothDroppedOnASphereRestsOnItWithoutPenetrating) {
@@ -135,10 +148,11 @@ TEST(Xpbd, ClothThrownFastAtTheBodyDoesNotTunnel) {
 }
 
 namespace {
-// A strip folded over itself: the lower layer (pinned flat at y = 0) and an upper layer 4 cm above
-// it, joined by a half circle. Returns the pattern x where the upper layer starts.
+// A 1 m strip folded over itself at 0.6 m: the lower layer (pinned flat at y = 0, 0.57 m long)
+// and a shorter upper layer 4 cm above it, joined by a half circle. Returns the pattern x where
+// the upper layer starts.
 double fold_strip(Garment& g, double radius) {
-  const double a = 0.5 - M_PI * radius / 2;
+  const double a = 0.6 - M_PI * radius / 2;
   for (Vertex v : g.mesh().vertices()) {
     const Vec3 q = g.position(v);
     const double u = q.x();
@@ -159,30 +173,35 @@ double fold_strip(Garment& g, double radius) {
 }  // namespace
 
 TEST(Xpbd, SelfCollisionKeepsAFoldedClothFromPassingThroughItself) {
+  // The upper layer is thrown down (1 m/s) onto the pinned lower layer. It must come to rest on it,
+  // a thickness above it; without self-collision the same cloth falls straight through (so the
+  // test can fail). Only the part over the lower layer counts: past its end (x > 0.57 m) the fold
+  // may roll over the edge and hang down, as real cloth does.
+  const int nx = 41;
   for (bool self : {true, false}) {
     Material mat;
-    Garment g = make_rectangle(1.0, 0.3, 41, 13, mat);
+    Garment g = make_rectangle(1.0, 0.3, nx, 13, mat);
     const double upper = fold_strip(g, 0.02);
     for (Vertex v : g.mesh().vertices())
-      if (!g.pinned(v)) g.velocity(v) = Vec3(0, -1.0, 0);  // thrown down onto the lower layer
+      if (!g.pinned(v)) g.velocity(v) = Vec3(0, -1.0, 0);
     SolverParams p;
     p.self_collision = self;
     p.body_collision = false;
     Solver solver(p);
-    run(solver, g, 1.5);
     double lowest = 1e9;
-    for (Vertex v : g.mesh().vertices()) {
-      const Vec3 q = g.position(v);
-      // Upper-layer vertices over the lower layer (pattern x beyond the fold, world x inside it).
-      if (g.uv(g.mesh().halfedge(v)).x() * 1.0 > upper + 0.03 && q.x() > 0.02 && q.x() < 0.45)
-        lowest = std::min(lowest, q.y());
+    for (int step = 0; step < 30; ++step) {
+      solver.step(g, 1.0 / 60);
+      for (Vertex v : g.mesh().vertices()) {
+        const double u = double(v.idx() % nx) / (nx - 1);  // pattern x of the vertex
+        const Vec3 q = g.position(v);
+        if (u > upper + 0.03 && q.x() > 0.02 && q.x() < 0.55) lowest = std::min(lowest, q.y());
+      }
     }
     if (self) {
-      EXPECT_GE(lowest, 0.9 * mat.thickness) << "the upper layer rests on the lower one";
-      EXPECT_LT(lowest, 3 * mat.thickness) << "and has fallen onto it";
-      EXPECT_LT(solver.measure(g).max_strain, 0.1);
+      EXPECT_GE(lowest, 0.75 * mat.thickness) << "the upper layer stays on the lower one";
+      EXPECT_LT(lowest, 2 * mat.thickness) << "and has fallen onto it";
     } else {
-      EXPECT_LT(lowest, -0.05) << "without self-collision it falls through (the test can fail)";
+      EXPECT_LT(lowest, -0.05) << "without self-collision it falls through";
     }
   }
 }

@@ -284,7 +284,11 @@ void rebuild(SolverArrays& s, const Garment& g) {
     const double c02 = (lab * lab + lad * lad - ldb * ldb) / (4 * A1);  // angle at a, triangle abd
     const double c03 = (lab * lab + lbc * lbc - lca * lca) / (4 * A0);  // angle at b, triangle abc
     const double c04 = (lab * lab + ldb * ldb - lad * lad) / (4 * A1);  // angle at b, triangle abd
-    const double sc = std::sqrt(3.0 / (A0 + A1));
+    // Bergou's weight is 3 / (A0 + A1) for the integral of the squared mean-curvature normal; with
+    // 1 / (A0 + A1) the energy (k_b / 2) |C|^2 summed over edges matches (k_b / 2) kappa^2 per unit
+    // area on a cylinder (checked on this triangulation to within the border edges' share), so
+    // k_b is the fabric's bending rigidity in N m.
+    const double sc = std::sqrt(1.0 / (A0 + A1));
     SolverArrays::Bend bd{{a, b, c, d},
                           {sc * (c03 + c04), sc * (c01 + c02), sc * (-c01 - c03), sc * (-c02 - c04)}};
     bends.push_back(bd);

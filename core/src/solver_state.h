@@ -47,7 +47,7 @@ struct SolverArrays {
   // ---- bending: isometric (quadratic) bending per interior edge, sorted by colour ----
   struct Bend {
     int v[4];       // edge endpoints a, b and the opposite vertices c, d
-    double g[4];    // sqrt(3 / (A0 + A1)) * K_i, the constant gradient weights
+    double g[4];    // sqrt(1 / (A0 + A1)) * K_i, the constant gradient weights
   };
   std::vector<Bend> bends;
   std::vector<int> b_color;

@@ -5,7 +5,7 @@
 //    k_e = material.stretch_stiffness (N/m). On a regular triangulation this keeps the sheet's
 //    stiffness independent of the resolution (springs in series and in parallel cancel);
 //  - bending: the isometric (quadratic) bending model of Bergou et al. 2006 as a vector constraint
-//    C = sqrt(3 / (A0 + A1)) * sum_i K_i x_i on the four vertices of each interior edge, with
+//    C = sqrt(1 / (A0 + A1)) * sum_i K_i x_i on the four vertices of each interior edge, with
 //    energy (k_b / 2) |C|^2, k_b = material.bending_stiffness (N m): the discrete Willmore energy of
 //    a flat pattern, with a constant gradient, so one projection is a handful of multiply-adds and
 //    needs no trigonometry (a dihedral-angle constraint costs an acos, two cross products and

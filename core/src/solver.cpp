@@ -9,6 +9,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
+#include <queue>
 #include <sstream>
 
 namespace kiji {
@@ -117,6 +119,95 @@ void colour(std::size_t count, std::size_t n, GetVerts verts, std::vector<int>& 
   for (std::size_t c = 0; c < count; ++c) perm[fill[col[c]]++] = static_cast<int>(c);
 }
 
+// The long-range limits, level by level: anchors at least S edges apart (greedy in Morton
+// order), each joined to the anchors within 2 S edges by the shortest rest-length path.
+void build_long_range(SolverArrays& s) {
+  s.l_i.clear();
+  s.l_j.clear();
+  s.l_rest.clear();
+  const std::size_t n = s.n;
+  std::vector<int> hop(n, -1), mark(n, 0);
+  std::vector<double> dist(n, std::numeric_limits<double>::infinity());
+  std::vector<char> anchor(n, 0);
+  std::vector<int> touched, queue;
+  using QE = std::pair<double, int>;
+  std::priority_queue<QE, std::vector<QE>, std::greater<QE>> pq;
+  std::vector<std::array<int, 2>> li;
+  std::vector<double> lr;
+  std::vector<std::vector<std::size_t>> levels;
+  for (int S = 2; S <= 64; S *= 2) {
+    // Anchors: every vertex within S-1 edges of one, no two closer than S edges.
+    std::fill(anchor.begin(), anchor.end(), 0);
+    std::fill(mark.begin(), mark.end(), 0);
+    std::vector<int> anchors;
+    for (int a : s.order) {
+      if (mark[a]) continue;
+      anchor[a] = 1;
+      anchors.push_back(a);
+      queue.assign(1, a);
+      hop[a] = 0;
+      touched.assign(1, a);
+      mark[a] = 1;
+      for (std::size_t q = 0; q < queue.size(); ++q) {
+        const int u = queue[q];
+        if (hop[u] >= S - 1) continue;
+        for (int k = s.nbr_begin[u]; k < s.nbr_begin[u + 1]; ++k) {
+          const int w = s.nbr[k];
+          if (hop[w] >= 0) continue;
+          hop[w] = hop[u] + 1;
+          mark[w] = 1;
+          touched.push_back(w);
+          queue.push_back(w);
+        }
+      }
+      for (int u : touched) hop[u] = -1;
+    }
+    if (anchors.size() < 2) break;
+    std::size_t before = li.size();
+    // Join anchors: Dijkstra on rest lengths, no further than 2 S edges.
+    for (int a : anchors) {
+      touched.assign(1, a);
+      dist[a] = 0;
+      hop[a] = 0;
+      pq.push({0.0, a});
+      while (!pq.empty()) {
+        const auto [d, u] = pq.top();
+        pq.pop();
+        if (d > dist[u]) continue;
+        if (u != a && anchor[u] && u > a) {
+          li.push_back({a, u});
+          lr.push_back(d);
+        }
+        if (hop[u] >= 2 * S) continue;
+        for (int k = s.nbr_begin[u]; k < s.nbr_begin[u + 1]; ++k) {
+          const int w = s.nbr[k];
+          const double nd = d + s.nbr_rest[k];
+          if (nd < dist[w]) {
+            if (!std::isfinite(dist[w])) touched.push_back(w);
+            dist[w] = nd;
+            hop[w] = hop[u] + 1;
+            pq.push({nd, w});
+          }
+        }
+      }
+      for (int u : touched) {
+        dist[u] = std::numeric_limits<double>::infinity();
+        hop[u] = -1;
+      }
+    }
+    std::vector<std::size_t> idx;
+    for (std::size_t k = before; k < li.size(); ++k) idx.push_back(k);
+    levels.push_back(idx);
+  }
+  // Coarse to fine.
+  for (auto it = levels.rbegin(); it != levels.rend(); ++it)
+    for (std::size_t k : *it) {
+      s.l_i.push_back(li[k][0]);
+      s.l_j.push_back(li[k][1]);
+      s.l_rest.push_back(lr[k]);
+    }
+}
+
 double heron(double a, double b, double c) {
   const double s = 0.5 * (a + b + c);
   const double q = s * (s - a) * (s - b) * (s - c);
@@ -193,7 +284,11 @@ void rebuild(SolverArrays& s, const Garment& g) {
     const double c02 = (lab * lab + lad * lad - ldb * ldb) / (4 * A1);  // angle at a, triangle abd
     const double c03 = (lab * lab + lbc * lbc - lca * lca) / (4 * A0);  // angle at b, triangle abc
     const double c04 = (lab * lab + ldb * ldb - lad * lad) / (4 * A1);  // angle at b, triangle abd
-    const double sc = std::sqrt(3.0 / (A0 + A1));
+    // Bergou's weight is 3 / (A0 + A1) for the integral of the squared mean-curvature normal; with
+    // 1 / (A0 + A1) the energy (k_b / 2) |C|^2 summed over edges matches (k_b / 2) kappa^2 per unit
+    // area on a cylinder (checked on this triangulation to within the border edges' share), so
+    // k_b is the fabric's bending rigidity in N m.
+    const double sc = std::sqrt(1.0 / (A0 + A1));
     SolverArrays::Bend bd{{a, b, c, d},
                           {sc * (c03 + c04), sc * (c01 + c02), sc * (-c01 - c03), sc * (-c02 - c04)}};
     bends.push_back(bd);
@@ -222,13 +317,20 @@ void rebuild(SolverArrays& s, const Garment& g) {
   }
   for (std::size_t i = 0; i < n; ++i) s.nbr_begin[i + 1] += s.nbr_begin[i];
   s.nbr.assign(s.nbr_begin[n], 0);
+  s.nbr_rest.assign(s.nbr_begin[n], 0.0);
+  s.spacing.assign(n, 0.0);
   {
     std::vector<int> fill(s.nbr_begin.begin(), s.nbr_begin.end() - 1);
     for (std::size_t k = 0; k < ei.size(); ++k) {
+      const double r = g.rest_length(eh[k]);
+      s.nbr_rest[fill[ei[k]]] = r;
       s.nbr[fill[ei[k]]++] = ej[k];
+      s.nbr_rest[fill[ej[k]]] = r;
       s.nbr[fill[ej[k]]++] = ei[k];
+      for (int u : {ei[k], ej[k]}) s.spacing[u] = s.spacing[u] > 0 ? std::min(s.spacing[u], r) : r;
     }
   }
+  build_long_range(s);
 
   // Self-collision trees: one leaf per triangle and per vertex, built once, refitted every step.
   s.tri_tree.clear();

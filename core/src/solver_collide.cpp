@@ -189,13 +189,16 @@ void gather_self_pairs(SolverArrays& s, double thickness) {
   s.last_self_pairs = s.self_pairs.size();
 }
 
-void resolve_self(SolverArrays& s, double th) {
+void resolve_self(SolverArrays& s, double thickness) {
   for (const auto& p : s.self_pairs) {
     const auto& tri = s.tris[p.t];
     Vec3& xv = s.x[p.v];
     Vec3& A = s.x[tri[0]];
     Vec3& B = s.x[tri[1]];
     Vec3& C = s.x[tri[2]];
+    // On a mesh finer than the thickness, the triangles just beyond the vertex's neighbours are
+    // closer than the thickness at rest: keep the pair's distance below the rest spacing.
+    const double th = std::min(thickness, 0.6 * s.spacing[p.v]);
     Vec3 n = (B - A).cross(C - A);
     const double len = n.norm();
     if (!(len > 1e-20)) continue;
@@ -203,22 +206,35 @@ void resolve_self(SolverArrays& s, double th) {
     const geom::ClosestPoint cp = geom::closest_on_triangle(xv, A, B, C);
     const Vec3 d = xv - cp.point;
     const double dn = d.dot(n);
-    if (dn >= th) continue;
-    if (dn >= 0) {
-      if (d.squaredNorm() >= th * th) continue;
+    const double d2 = d.squaredNorm();
+    Vec3 dir;
+    double depth;
+    const bool over = cp.b0 > 1e-9 && cp.b1 > 1e-9 && cp.b2 > 1e-9;
+    bool crossed = false;
+    if (dn < 0 && over) {
+      // Over the triangle on the wrong side: did it cross during this substep (it was on the
+      // right side at the substep's start)? Going round the triangle's edge is not a crossing.
+      const Vec3& pA = s.xp[tri[0]];
+      const Vec3 pn = (s.xp[tri[1]] - pA).cross(s.xp[tri[2]] - pA) * p.side;
+      crossed = (s.xp[p.v] - pA).dot(pn) >= 0;
+    }
+    if (crossed) {
+      dir = n;  // back to the side it started on
+      depth = th - dn;
     } else {
-      // On the wrong side: a crossing only if it is over the triangle (not beside it).
-      const double eps = -1e-6;
-      if (d.squaredNorm() >= th * th && (cp.b0 <= eps || cp.b1 <= eps || cp.b2 <= eps)) continue;
+      if (d2 >= th * th) continue;
+      const double dist = std::sqrt(d2);
+      dir = dist > 1e-12 ? Vec3(d / dist) : n;
+      depth = th - dist;
     }
     const double wv = s.w[p.v], w0 = s.w[tri[0]], w1 = s.w[tri[1]], w2 = s.w[tri[2]];
     const double denom = wv + cp.b0 * cp.b0 * w0 + cp.b1 * cp.b1 * w1 + cp.b2 * cp.b2 * w2;
     if (!(denom > 0)) continue;
-    const double lambda = (th - dn) / denom;
-    xv += (wv * lambda) * n;
-    A -= (w0 * cp.b0 * lambda) * n;
-    B -= (w1 * cp.b1 * lambda) * n;
-    C -= (w2 * cp.b2 * lambda) * n;
+    const double lambda = depth / denom;
+    xv += (wv * lambda) * dir;
+    A -= (w0 * cp.b0 * lambda) * dir;
+    B -= (w1 * cp.b1 * lambda) * dir;
+    C -= (w2 * cp.b2 * lambda) * dir;
   }
 }
 

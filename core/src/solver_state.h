@@ -36,10 +36,18 @@ struct SolverArrays {
   std::vector<double> e_rest;
   std::vector<int> e_color;           // offsets of colour groups: [e_color[k], e_color[k+1])
 
+  // ---- long-range stretch limits (hierarchical, unilateral): |x_i - x_j| <= rest ----
+  // Between "anchor" vertices S = 2, 4, 8, ... edges apart, with rest = the shortest rest-length
+  // path between them (never shorter than the flat distance, so never active unless the cloth is
+  // stretched). Solved coarse to fine before the edges, they carry stretch across the cloth in one
+  // sweep, as the coarse levels of hierarchical PBD (Mueller 2008) do.
+  std::vector<int> l_i, l_j;
+  std::vector<double> l_rest;
+
   // ---- bending: isometric (quadratic) bending per interior edge, sorted by colour ----
   struct Bend {
     int v[4];       // edge endpoints a, b and the opposite vertices c, d
-    double g[4];    // sqrt(3 / (A0 + A1)) * K_i, the constant gradient weights
+    double g[4];    // sqrt(1 / (A0 + A1)) * K_i, the constant gradient weights
   };
   std::vector<Bend> bends;
   std::vector<int> b_color;
@@ -50,6 +58,8 @@ struct SolverArrays {
   // ---- faces and adjacency ----
   std::vector<std::array<int, 3>> tris;
   std::vector<int> nbr_begin, nbr;    // CSR of vertex neighbours (edges)
+  std::vector<double> nbr_rest;       // rest length of each neighbour's edge
+  std::vector<double> spacing;        // per vertex: shortest incident rest length
 
   // ---- body collision (candidates gathered once per step, used by every substep) ----
   const Body* body = nullptr;

@@ -5,7 +5,7 @@
 //    k_e = material.stretch_stiffness (N/m). On a regular triangulation this keeps the sheet's
 //    stiffness independent of the resolution (springs in series and in parallel cancel);
 //  - bending: the isometric (quadratic) bending model of Bergou et al. 2006 as a vector constraint
-//    C = sqrt(3 / (A0 + A1)) * sum_i K_i x_i on the four vertices of each interior edge, with
+//    C = sqrt(1 / (A0 + A1)) * sum_i K_i x_i on the four vertices of each interior edge, with
 //    energy (k_b / 2) |C|^2, k_b = material.bending_stiffness (N m): the discrete Willmore energy of
 //    a flat pattern, with a constant gradient, so one projection is a handful of multiply-adds and
 //    needs no trigonometry (a dihedral-angle constraint costs an acos, two cross products and
@@ -67,6 +67,19 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
     std::fill(s.lam_e.begin(), s.lam_e.end(), 0.0);
     if (bending) std::fill(s.lam_b.begin(), s.lam_b.end(), Vec3::Zero());
     for (int it = 0; it < p.iterations; ++it) {
+      for (std::size_t k = 0; k < s.l_i.size(); ++k) {  // long-range limits, coarse to fine
+        const int i = s.l_i[k], j = s.l_j[k];
+        const double wsum = W[i] + W[j];
+        if (wsum == 0) continue;
+        const Vec3 d = X[i] - X[j];
+        const double len2 = d.squaredNorm();
+        const double rest = s.l_rest[k];
+        if (len2 <= rest * rest) continue;
+        const double len = std::sqrt(len2);
+        const Vec3 corr = d * ((rest - len) / (len * wsum));
+        X[i] += W[i] * corr;
+        X[j] -= W[j] * corr;
+      }
       for (int k = 0; k < ne; ++k) {
         const int i = s.e_i[k], j = s.e_j[k];
         const double wsum = W[i] + W[j];

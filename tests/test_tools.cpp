@@ -49,12 +49,12 @@ Vertex nearest(const Garment& g, const Vec3& p) {
 }
 
 // A flat rectangle lying in the z = 0 plane, as made by the pattern maker.
-Session flat_session(double w, double h, int nx, int ny, const Material& m = {}) {
-  Session s(plugins());
-  s.add_garment(make_rectangle(w, h, nx, ny, m));
+std::unique_ptr<Session> flat_session(double w, double h, int nx, int ny, const Material& m = {}) {
+  auto s = std::make_unique<Session>(plugins());
+  s->add_garment(make_rectangle(w, h, nx, ny, m));
   SolverParams p;
   p.gravity = Vec3::Zero();
-  s.set_solver_params(p);
+  s->set_solver_params(p);
   return s;
 }
 
@@ -146,7 +146,8 @@ TEST(Pinch, TheGrabbedVertexFollowsAndTheFeedbackIsTheSpringForce) {
 }
 
 TEST(Pinch, WithALocalRadiusNothingOutsideItMoves) {
-  Session s = flat_session(1.0, 1.0, 21, 21);
+  auto owner = flat_session(1.0, 1.0, 21, 21);
+  Session& s = *owner;
   const State before = state_of(s.garment(0));
   const Vec3 start(0.5, 0.5, 0);
   ParamSet p = s.params_for("pinch", {{"stiffness", 500.0}, {"local_radius", 0.2}});
@@ -163,7 +164,8 @@ TEST(Pinch, WithALocalRadiusNothingOutsideItMoves) {
 }
 
 TEST(Pinch, WholeModeCarriesTheGarment) {
-  Session s = flat_session(1.0, 1.0, 11, 11);
+  auto owner = flat_session(1.0, 1.0, 11, 11);
+  Session& s = *owner;
   s.simulating = false;
   const State before = state_of(s.garment(0));
   ParamSet p = s.params_for("pinch", {{"mode", std::string("whole")}});
@@ -174,16 +176,16 @@ TEST(Pinch, WholeModeCarriesTheGarment) {
 }
 
 namespace {
-// Hangs a cloth of the material by its top edge and pulls its bottom middle down hard.
+// Hangs a cloth of the material by its top edge and pulls its bottom middle down 4 cm.
 Garment pulled(const Material& m, const std::string& mode) {
   Session s(plugins());
   Garment g = make_rectangle(0.4, 0.4, 21, 21, m);
   for (Vertex v : g.mesh().vertices())
     if (g.position(v).y() > 0.399) g.set_pinned(v, true);
   s.add_garment(std::move(g));
-  ParamSet p = s.params_for("tear", {{"stiffness", 5000.0}, {"mode", mode}});
+  ParamSet p = s.params_for("tear", {{"mode", mode}});
   const Vec3 start(0.2, 0.0, 0);
-  s.run("tear", p, line(start, start + Vec3(0, -0.3, 0.0), 60));
+  s.run("tear", p, line(start, start + Vec3(0, -0.04, 0.0), 60));
   return s.garment(0);
 }
 }  // namespace
@@ -205,7 +207,8 @@ TEST(Tear, SplitModeOpensTheClothAndLosesNoFace) {
 }
 
 TEST(Cut, AStrokeAcrossARectangleMakesTwoPiecesKeepingEveryFace) {
-  Session s = flat_session(1.0, 1.0, 21, 21);
+  auto owner = flat_session(1.0, 1.0, 21, 21);
+  Session& s = *owner;
   s.simulating = false;
   const auto faces = s.garment(0).mesh().number_of_faces();
   ParamSet p = s.params_for("cut");
@@ -218,7 +221,8 @@ TEST(Cut, AStrokeAcrossARectangleMakesTwoPiecesKeepingEveryFace) {
 }
 
 TEST(Cut, VertexModeSplitsThePickedVertexAsThePaperDoes) {
-  Session s = flat_session(1.0, 1.0, 11, 11);
+  auto owner = flat_session(1.0, 1.0, 11, 11);
+  Session& s = *owner;
   s.simulating = false;
   ParamSet p = s.params_for("cut", {{"mode", std::string("vertex")}});
   run_and_check_undo(s, "cut", p, line(Vec3(0.5, 0.0, 0.0), Vec3(0.5, 0.1, 0.0), 3));
@@ -228,13 +232,20 @@ TEST(Cut, VertexModeSplitsThePickedVertexAsThePaperDoes) {
 }
 
 TEST(Sew, ARectangleSewnEdgeToEdgeBecomesATube) {
-  Session s = flat_session(1.0, 0.5, 11, 6);
+  auto owner = flat_session(1.0, 0.5, 11, 6);
+  Session& s = *owner;
   s.simulating = false;
   ParamSet p = s.params_for("sew", {{"distance", 0.02}});
-  // The paper's sewing: drag each vertex of the left border onto its partner on the right.
+  // The paper's sewing: lift each vertex of the left border over the cloth and bring it down onto
+  // its partner on the right.
   for (int j = 0; j < 6; ++j) {
     const double y = 0.1 * j;
-    s.run("sew", p, line(Vec3(0.0, y, 0.0), Vec3(1.0, y, 0.0), 20, s.time()));
+    Stroke up = line(Vec3(0.0, y, 0.0), Vec3(0.5, y, 0.4), 10, s.time());
+    Stroke down = line(Vec3(0.5, y, 0.4), Vec3(1.0, y, 0.0), 10, up.back().time);
+    up.pop_back();
+    down.front().phase = Phase::Move;
+    up.insert(up.end(), down.begin(), down.end());
+    s.run("sew", p, up);
   }
   const Garment& g = s.garment(0);
   EXPECT_TRUE(g.is_valid());
@@ -274,7 +285,8 @@ TEST(Sew, TwoPanelsSewnAlongASeamHaveNoBorderAlongIt) {
 }
 
 TEST(Paint, TexelsUnderTheStrokeFollowTheClothAndAreExported) {
-  Session s = flat_session(1.0, 1.0, 21, 21);
+  auto owner = flat_session(1.0, 1.0, 21, 21);
+  Session& s = *owner;
   s.simulating = false;
   ParamSet p = s.params_for("paint", {{"color", Vec3(0, 0, 1)}, {"radius", 0.02}, {"resolution", 256LL}});
   // A horizontal line at y = 0.3 from x = 0.2 to 0.8, the pen just above the cloth.
@@ -305,7 +317,8 @@ TEST(Paint, TexelsUnderTheStrokeFollowTheClothAndAreExported) {
 }
 
 TEST(Paint, TouchingTheClothPushesBackAlongItsNormal) {
-  Session s = flat_session(1.0, 1.0, 11, 11);
+  auto owner = flat_session(1.0, 1.0, 11, 11);
+  Session& s = *owner;
   s.simulating = false;
   ParamSet p = s.params_for("paint", {{"touch_distance", 0.01}, {"stiffness", 100.0}});
   ToolEvent e;
@@ -319,7 +332,8 @@ TEST(Paint, TouchingTheClothPushesBackAlongItsNormal) {
 }
 
 TEST(Pin, PinsAndUnpinsTheClothUnderTheBrush) {
-  Session s = flat_session(1.0, 1.0, 21, 21);
+  auto owner = flat_session(1.0, 1.0, 21, 21);
+  Session& s = *owner;
   s.simulating = false;
   run_and_check_undo(s, "pin", s.params_for("pin", {{"radius", 0.03}}), line(Vec3(0.0, 1.0, 0.01), Vec3(1.0, 1.0, 0.01), 20));
   Garment& g = s.garment(0);
@@ -330,21 +344,22 @@ TEST(Pin, PinsAndUnpinsTheClothUnderTheBrush) {
     pinned += g.pinned(v);
   }
   EXPECT_EQ(pinned, 21u);
-  // Pinned, the top holds under gravity while the rest falls.
+  // Pinned, the top holds under gravity; unpinned, the whole cloth falls.
   s.simulating = true;
-  SolverParams params;
-  s.set_solver_params(params);
+  s.set_solver_params(SolverParams{});
   const Vec3 corner = g.position(nearest(g, Vec3(0, 1, 0)));
   for (int i = 0; i < 30; ++i) s.step();
   EXPECT_EQ(s.garment(0).position(nearest(s.garment(0), corner)), corner);
-  EXPECT_LT(s.garment(0).bounds().min().y(), -0.01);
-  s.run("pin", s.params_for("pin", {{"mode", std::string("unpin")}, {"radius", 2.0}}),
+  s.run("pin", s.params_for("pin", {{"mode", std::string("unpin")}, {"radius", 1.0}}),
         line(Vec3(0.5, 0.5, 0.0), Vec3(0.5, 0.5, 0.0), 1, s.time()));
   for (Vertex v : s.garment(0).mesh().vertices()) EXPECT_FALSE(s.garment(0).pinned(v));
+  for (int i = 0; i < 30; ++i) s.step();
+  EXPECT_LT(s.garment(0).bounds().max().y(), 0.9) << "freed, the top falls too";
 }
 
 TEST(Session, BadEventsAndParametersAreClearErrorsAndLoseNothing) {
-  Session s = flat_session(1.0, 1.0, 11, 11);
+  auto owner = flat_session(1.0, 1.0, 11, 11);
+  Session& s = *owner;
   const State before = state_of(s.garment(0));
   EXPECT_THROW(s.params_for("cut", {{"blade", 1.0}}), InputError);
   EXPECT_THROW(s.params_for("paint", {{"radius", -1.0}}), InputError);
@@ -363,7 +378,8 @@ TEST(Session, BadEventsAndParametersAreClearErrorsAndLoseNothing) {
 }
 
 TEST(Session, CancelRestoresTheGarment) {
-  Session s = flat_session(1.0, 1.0, 11, 11);
+  auto owner = flat_session(1.0, 1.0, 11, 11);
+  Session& s = *owner;
   s.simulating = false;
   const State before = state_of(s.garment(0));
   ParamSet p = s.params_for("pinch", {{"mode", std::string("whole")}});

@@ -79,6 +79,25 @@ void Solver::set_body(const Body* body) {
 
 void Solver::add_external_force(Vertex v, const Vec3& force) { forces_.push_back({v, force}); }
 
+int Solver::add_attachment(Vertex v, const Vec3& target, double stiffness) {
+  if (!all_finite(target)) throw InputError("an attachment's target point is not finite");
+  if (!std::isfinite(stiffness) || stiffness <= 0)
+    throw InputError("an attachment's stiffness is " + std::to_string(stiffness) + ": it must be positive, in N/m");
+  attachments_.push_back({next_attachment_, v, target, stiffness});
+  return next_attachment_++;
+}
+
+void Solver::move_attachment(int id, const Vec3& target) {
+  if (!all_finite(target)) throw InputError("an attachment's target point is not finite");
+  for (auto& a : attachments_)
+    if (a.id == id) a.target = target;
+}
+
+void Solver::remove_attachment(int id) {
+  attachments_.erase(std::remove_if(attachments_.begin(), attachments_.end(), [&](const Attachment& a) { return a.id == id; }),
+                     attachments_.end());
+}
+
 namespace solver_detail {
 
 namespace {
@@ -450,6 +469,16 @@ void Solver::step(Garment& garment, double dt) {
   for (std::size_t k = 0; k < s.e_handle.size(); ++k) s.e_rest[k] = garment.rest_length(s.e_handle[k]);
   for (const auto& f : forces_) s.fext[f.vertex.idx()] += f.force;
   forces_.clear();
+  // Hands on the cloth (dropping those whose vertex is gone) and tacks.
+  attachments_.erase(std::remove_if(attachments_.begin(), attachments_.end(),
+                                    [&](const Attachment& a) { return a.vertex.idx() >= n || !s.alive[a.vertex.idx()]; }),
+                     attachments_.end());
+  s.attach.clear();
+  for (const auto& a : attachments_) s.attach.push_back({static_cast<int>(a.vertex.idx()), a.target, a.stiffness});
+  s.tacks.clear();
+  for (const auto& [a, b] : garment.tacks)
+    if (a.idx() < n && b.idx() < n && s.alive[a.idx()] && s.alive[b.idx()])
+      s.tacks.push_back({static_cast<int>(a.idx()), static_cast<int>(b.idx())});
 
   const BodyCollider* body = (params_.body_collision && collider_) ? collider_.get() : nullptr;
   if (mass_spring)

@@ -45,6 +45,13 @@ void step_mass_spring(SolverArrays& s, const SolverParams& p, const Material& m,
       F[i] += gij;
       F[j] -= gij;
     }
+    for (const auto& a : s.attach)  // a hand's spring is one more force of eq. 2
+      if (s.moving[a.i]) F[a.i] += a.k * (a.target - X[a.i]);
+    for (const auto& t : s.tacks) {
+      const Vec3 f = k * (X[t[1]] - X[t[0]]);
+      F[t[0]] += f;
+      F[t[1]] -= f;
+    }
     for (std::size_t i = 0; i < n; ++i) {
       if (!s.moving[i]) continue;
       s.xp[i] = X[i];

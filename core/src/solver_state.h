@@ -55,6 +55,15 @@ struct SolverArrays {
   std::vector<Vec3> lam_b;
   std::vector<Vec3> force;            // MassSpring: force per vertex
 
+  // ---- hands and tacks: zero-length springs to a point, and between two vertices ----
+  struct Attach {
+    int i;
+    Vec3 target;
+    double k;  // N/m
+  };
+  std::vector<Attach> attach;
+  std::vector<std::array<int, 2>> tacks;
+
   // ---- faces and adjacency ----
   std::vector<std::array<int, 3>> tris;
   std::vector<int> nbr_begin, nbr;    // CSR of vertex neighbours (edges)

@@ -111,6 +111,23 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
         }
       }
     }
+    // Hands (zero-length springs to a point, compliance 1 / k) and tacks (zero-length, as stiff as
+    // the cloth), after the cloth's own constraints so that they win ties.
+    for (const auto& a : s.attach) {
+      const int i = a.i;
+      if (W[i] == 0) continue;
+      const double alpha = 1.0 / (a.k * h * h);
+      X[i] += (a.target - X[i]) * (W[i] / (W[i] + alpha));
+    }
+    for (const auto& t : s.tacks) {
+      const int i = t[0], j = t[1];
+      const double wsum = W[i] + W[j];
+      if (wsum == 0) continue;
+      const Vec3 d = X[j] - X[i];
+      const Vec3 corr = d * (1.0 / (wsum + alpha_s));
+      X[i] += W[i] * corr;
+      X[j] -= W[j] * corr;
+    }
     if (!s.self_pairs.empty()) resolve_self(s, th);
     for (int i : s.contact_verts) resolve_body(s, i, th, m.friction);
     const double inv_h = 1.0 / h;

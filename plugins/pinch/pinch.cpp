@@ -68,7 +68,10 @@ class PinchTool : public Tool {
     return feedback(session, event.position);
   }
 
-  void end(Session& session, const ToolEvent& event) override { release(session); }
+  void end(Session& session, const ToolEvent& event) override {
+    if (whole_) update(session, event);  // the release point is where the garment stays
+    release(session);
+  }
   void cancel(Session& session) override { release(session); }
 
   Feedback haptic_force(const Session& session, const ToolEvent& event) const override {

@@ -76,6 +76,16 @@ class Solver {
   // Forces for the next step only.
   void add_external_force(Vertex v, const Vec3& force);
 
+  // Attachments: a spring of `stiffness` N/m and zero rest length from a point in space to a vertex
+  // (a tool's hand on the cloth), kept until removed. Xpbd solves it implicitly (as a constraint of
+  // compliance 1 / stiffness), so a stiff hand on a light vertex stays stable; MassSpring adds its
+  // force k (target - x) like any other force of eq. 2. Returns an id; an attachment to a vertex
+  // that a topology edit removes is dropped.
+  int add_attachment(Vertex v, const Vec3& target, double stiffness);
+  void move_attachment(int id, const Vec3& target);
+  void remove_attachment(int id);
+  std::size_t attachment_count() const { return attachments_.size(); }
+
   // Advances the garment by dt seconds (params.substeps substeps), writing positions and velocities
   // back to the mesh. Throws InputError for dt <= 0 or non-finite, or if the garment's state is not
   // finite before the step.
@@ -91,6 +101,14 @@ class Solver {
   const Body* body_ = nullptr;
   std::unique_ptr<BodyCollider> collider_;
   std::vector<ExternalForce> forces_;
+  struct Attachment {
+    int id;
+    Vertex vertex;
+    Vec3 target;
+    double stiffness;
+  };
+  std::vector<Attachment> attachments_;
+  int next_attachment_ = 0;
   struct State;
   std::unique_ptr<State> state_;
 };

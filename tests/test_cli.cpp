@@ -90,3 +90,16 @@ TEST(Cli, DrapePrintsJsonAndWritesTheGarmentAndAPicture) {
   EXPECT_GT(std::filesystem::file_size(out), 1000u);
   EXPECT_GT(std::filesystem::file_size(png), 1000u);
 }
+
+TEST(Cli, ToolsListsThePluginsWithTheirParameters) {
+  CliRun r = run("tools --path " KIJI_PLUGIN_DIR);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("6 tools"), std::string::npos) << r.out;
+  for (const char* text : {"cut — Cut", "paint — Paint", "pin — Pin", "pinch — Pinch", "sew — Sew", "tear — Tear",
+                           "local_radius", "tear threshold", "hardness", "one of 'remove' 'split'"})
+    EXPECT_NE(r.out.find(text), std::string::npos) << text;
+  r = run("tools --path /nonexistent");
+  EXPECT_EQ(r.code, 0);
+  EXPECT_NE(r.out.find("0 tools"), std::string::npos);
+  EXPECT_NE(r.out.find("/nonexistent: plugin folder does not exist"), std::string::npos) << r.out;
+}

@@ -122,6 +122,7 @@ TEST(Pinch, TheGrabbedVertexFollowsAndTheFeedbackIsTheSpringForce) {
   for (Vertex v : g.mesh().vertices())
     if (g.position(v).y() > 0.499) g.set_pinned(v, true);
   s.add_garment(std::move(g));
+  const State before = state_of(s.garment(0));
   const Vec3 start = s.garment(0).position(nearest(s.garment(0), Vec3(0.25, 0.0, 0)));
   const double k = 2000;
   ParamSet p = s.params_for("pinch", {{"stiffness", k}});
@@ -143,6 +144,12 @@ TEST(Pinch, TheGrabbedVertexFollowsAndTheFeedbackIsTheSpringForce) {
     EXPECT_LT((f.force - k * (x - e.position)).norm(), 1e-9) << "feedback is k (vertex - pointer)";
   }
   EXPECT_LT((s.garment(0).position(grabbed) - goal).norm(), 0.01) << "the vertex followed the pointer";
+  // Undo puts the cloth back exactly as it hung before the pull.
+  const State after = state_of(s.garment(0));
+  ASSERT_TRUE(s.undo());
+  expect_same(state_of(s.garment(0)), before);
+  ASSERT_TRUE(s.redo());
+  expect_same(state_of(s.garment(0)), after);
 }
 
 TEST(Pinch, WithALocalRadiusNothingOutsideItMoves) {
@@ -185,8 +192,16 @@ Garment pulled(const Material& m, const std::string& mode) {
   s.add_garment(std::move(g));
   ParamSet p = s.params_for("tear", {{"mode", mode}});
   const Vec3 start(0.2, 0.0, 0);
-  s.run("tear", p, line(start, start + Vec3(0, -0.04, 0.0), 60));
-  return s.garment(0);
+  const State before = state_of(s.garment(0));
+  const Stroke stroke = line(start, start + Vec3(0, -0.04, 0.0), 60);
+  s.run("tear", p, stroke);
+  const Garment torn = s.garment(0);
+  // Undo restores the whole cloth exactly; redo the torn one.
+  EXPECT_TRUE(s.undo());
+  expect_same(state_of(s.garment(0)), before);
+  EXPECT_TRUE(s.redo());
+  expect_same(state_of(s.garment(0)), state_of(torn));
+  return torn;
 }
 }  // namespace
 
@@ -235,6 +250,7 @@ TEST(Sew, ARectangleSewnEdgeToEdgeBecomesATube) {
   auto owner = flat_session(1.0, 0.5, 11, 6);
   Session& s = *owner;
   s.simulating = false;
+  const State before = state_of(s.garment(0));
   ParamSet p = s.params_for("sew", {{"distance", 0.02}});
   // The paper's sewing: lift each vertex of the left border over the cloth and bring it down onto
   // its partner on the right.
@@ -252,9 +268,10 @@ TEST(Sew, ARectangleSewnEdgeToEdgeBecomesATube) {
   EXPECT_EQ(g.count_pieces(), 1u);
   EXPECT_EQ(border_loops(g).size(), 2u) << "a tube has two border loops";
   EXPECT_TRUE(g.tacks.empty()) << "every tack closed into the seam";
-  // Undo of the last sewing stroke gives back the open seam at the end.
-  s.undo();
-  EXPECT_TRUE(s.garment(0).is_valid());
+  // Undoing the six strokes gives back the flat rectangle exactly.
+  for (int j = 0; j < 6; ++j) ASSERT_TRUE(s.undo());
+  EXPECT_FALSE(s.undo());
+  expect_same(state_of(s.garment(0)), before);
 }
 
 TEST(Sew, TwoPanelsSewnAlongASeamHaveNoBorderAlongIt) {
@@ -314,6 +331,12 @@ TEST(Paint, TexelsUnderTheStrokeFollowTheClothAndAreExported) {
   const Garment back = import_garment(path);
   ASSERT_EQ(back.texture().width, t.width);
   EXPECT_TRUE(back.texture().rgba == t.rgba);
+  // And so does OBJ, with the PNG beside it.
+  const std::string obj = std::string(KIJI_TEST_TMP) + "/painted.obj";
+  export_garment(g, obj);
+  const Garment back_obj = import_garment(obj);
+  ASSERT_EQ(back_obj.texture().width, t.width);
+  EXPECT_TRUE(back_obj.texture().rgba == t.rgba);
 }
 
 TEST(Paint, TouchingTheClothPushesBackAlongItsNormal) {

@@ -1,9 +1,11 @@
 // paint: the pen as a brush. Colours the garment's texture at the pointer's place on the cloth
 // and pushes back along the cloth's normal while the pen touches it, as in the 2006 paper.
+#include <kiji/haptics.h>
 #include <kiji/session.h>
 #include <kiji/tool.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 namespace {
@@ -38,6 +40,8 @@ class PaintTool : public Tool {
     resolution_ = static_cast<int>(params.get_int("resolution"));
     touch_ = params.get_float("touch_distance");
     stiffness_ = params.get_float("stiffness");
+    haptic_touch_ = touch_;
+    haptic_stiffness_ = stiffness_;
     has_last_ = false;
     return paint(session, event);
   }
@@ -48,18 +52,20 @@ class PaintTool : public Tool {
 
   void cancel(Session&) override { has_last_ = false; }
 
-  Feedback haptic_force(const Session& session, const ToolEvent& event) const override {
-    return touch_force(event);
+  // On the haptic thread: the cloth's surface near the pen from the last step's snapshot.
+  Feedback haptic_force(const HapticSnapshot& snapshot, const ToolEvent& event) const override {
+    return touch_force(event.position, snapshot.nearest(event.position), haptic_touch_.load(),
+                       haptic_stiffness_.load());
   }
 
  private:
-  Feedback touch_force(const ToolEvent& e) const {
+  // Pushes the pen back out of the cloth, on whichever side it is, along the normal.
+  static Feedback touch_force(const Vec3& pen, const SurfaceHit& hit, double touch, double stiffness) {
     Feedback f;
-    if (!e.hit.hit || e.hit.distance > touch_) return f;
-    // Push the pen back out of the cloth, on whichever side it is.
-    Vec3 n = e.hit.normal;
-    if ((e.position - e.hit.point).dot(n) < 0) n = -n;
-    f.force = stiffness_ * (touch_ - e.hit.distance) * n;
+    if (!hit.hit || hit.distance > touch) return f;
+    Vec3 n = hit.normal;
+    if ((pen - hit.point).dot(n) < 0) n = -n;
+    f.force = stiffness * (touch - hit.distance) * n;
     return f;
   }
 
@@ -84,7 +90,7 @@ class PaintTool : public Tool {
     has_last_ = true;
     last_uv_ = to;
     last_garment_ = e.hit.garment;
-    return touch_force(e);
+    return touch_force(e.position, e.hit, touch_, stiffness_);
   }
 
   void stamp(Texture& t, const Vec2& uv, double r_uv, double pressure) {
@@ -114,6 +120,7 @@ class PaintTool : public Tool {
   bool has_last_ = false;
   Vec2 last_uv_ = Vec2::Zero();
   std::size_t last_garment_ = 0;
+  std::atomic<double> haptic_touch_{0.005}, haptic_stiffness_{300};
 };
 
 }  // namespace

@@ -2,8 +2,11 @@
 // the nearest vertex with a spring; moving pulls the cloth and the spring's force is fed back. A
 // local radius limits the simulation to the cloth near the hand; mode 'whole' carries the whole
 // garment with the pointer.
+#include <kiji/haptics.h>
 #include <kiji/session.h>
 #include <kiji/tool.h>
+
+#include <atomic>
 
 namespace {
 
@@ -44,6 +47,9 @@ class PinchTool : public Tool {
       solver.set_params(p);
     }
     attachment_ = solver.add_attachment(grabbed_, event.position, stiffness_);
+    haptic_stiffness_ = stiffness_;
+    haptic_garment_ = garment_;
+    haptic_vertex_ = grabbed_.idx();
     return feedback(session, event.position);
   }
 
@@ -74,9 +80,13 @@ class PinchTool : public Tool {
   }
   void cancel(Session& session) override { release(session); }
 
-  Feedback haptic_force(const Session& session, const ToolEvent& event) const override {
-    if (grabbed_ == Mesh::null_vertex()) return {};
-    return feedback(session, event.position);
+  // On the haptic thread: the same spring, to the grabbed vertex as the last step left it.
+  Feedback haptic_force(const HapticSnapshot& snapshot, const ToolEvent& event) const override {
+    Feedback f;
+    const std::uint32_t v = haptic_vertex_.load();
+    if (v == kNone || snapshot.garment != haptic_garment_.load()) return f;
+    if (const Vec3* x = snapshot.position_of(Vertex(v))) f.force = haptic_stiffness_.load() * (*x - event.position);
+    return f;
   }
 
  private:
@@ -90,6 +100,7 @@ class PinchTool : public Tool {
   }
 
   void release(Session& session) {
+    haptic_vertex_ = kNone;
     if (grabbed_ == Mesh::null_vertex() || garment_ >= session.garment_count()) {
       grabbed_ = Mesh::null_vertex();
       return;
@@ -107,6 +118,11 @@ class PinchTool : public Tool {
   int attachment_ = -1;
   SolverParams saved_params_;
   Vec3 last_ = Vec3::Zero();
+  // What the haptic thread reads, written when a stroke begins and ends.
+  static constexpr std::uint32_t kNone = 0xffffffffu;
+  std::atomic<std::uint32_t> haptic_vertex_{kNone};
+  std::atomic<std::size_t> haptic_garment_{0};
+  std::atomic<double> haptic_stiffness_{0};
 };
 
 }  // namespace

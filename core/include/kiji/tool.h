@@ -23,6 +23,7 @@
 namespace kiji {
 
 class Session;
+struct HapticSnapshot;
 
 struct ToolInfo {
   std::string id;           // the verb: "cut" -> plugins/cut/ -> session.cut(...)
@@ -48,9 +49,11 @@ class Tool {
   // garments as they were before the stroke; release any state the tool holds.
   virtual void cancel(Session& session) = 0;
 
-  // The force on the user's hand for a pointer position between solver steps, for the 1 kHz haptic
-  // loop. It must be quick and must not change the session. The default is no force.
-  virtual Feedback haptic_force(const Session& session, const ToolEvent& event) const { return {}; }
+  // The force on the user's hand for a pointer position between solver steps, asked by the 1 kHz
+  // haptic loop on its own thread. It may read only the snapshot (the cloth near the pointer after
+  // the last step), the event and the tool's own stroke settings, and must return in microseconds.
+  // The default is no force.
+  virtual Feedback haptic_force(const HapticSnapshot& snapshot, const ToolEvent& event) const { return {}; }
 
   // Feeds a recorded stroke through begin / update / end / cancel, through the session (which
   // advances the simulation to each event's time, fills in the surface hit and journals it).

@@ -326,13 +326,13 @@ TEST(Paint, TexelsUnderTheStrokeFollowTheClothAndAreExported) {
   ASSERT_TRUE(hit.hit);
   EXPECT_EQ(texel_at(hit.uv.x(), hit.uv.y())[2], 255);
   // The exported file carries the painted texture.
-  const std::string path = std::string(KIJI_TEST_TMP) + "/painted.glb";
+  const std::string path = std::string(KIJI_TEST_TMP) + "/tools_painted.glb";
   export_garment(g, path);
   const Garment back = import_garment(path);
   ASSERT_EQ(back.texture().width, t.width);
   EXPECT_TRUE(back.texture().rgba == t.rgba);
   // And so does OBJ, with the PNG beside it.
-  const std::string obj = std::string(KIJI_TEST_TMP) + "/painted.obj";
+  const std::string obj = std::string(KIJI_TEST_TMP) + "/tools_painted.obj";
   export_garment(g, obj);
   const Garment back_obj = import_garment(obj);
   ASSERT_EQ(back_obj.texture().width, t.width);

@@ -2,7 +2,6 @@
 
 #include "kiji/error.h"
 
-#include <CGAL/Polygon_mesh_processing/manifoldness.h>
 #include <CGAL/boost/graph/helpers.h>
 
 #include <atomic>
@@ -20,6 +19,22 @@ std::uint64_t fresh_version() {
   return next++;
 }
 }  // namespace
+
+std::vector<Vertex> non_manifold_vertices(const Mesh& mesh) {
+  std::vector<std::uint32_t> incoming(mesh.number_of_vertices() + mesh.number_of_removed_vertices(), 0);
+  for (Halfedge h : mesh.halfedges()) ++incoming[mesh.target(h).idx()];
+  std::vector<Vertex> out;
+  for (Vertex v : mesh.vertices()) {
+    if (mesh.is_isolated(v)) continue;
+    std::uint32_t around = 0;
+    for (Halfedge h : CGAL::halfedges_around_target(mesh.halfedge(v), mesh)) {
+      (void)h;
+      if (++around > incoming[v.idx()]) break;
+    }
+    if (around != incoming[v.idx()]) out.push_back(v);
+  }
+  return out;
+}
 
 void Garment::bump_topology_version() { topology_version_ = fresh_version(); }
 
@@ -201,11 +216,12 @@ void Garment::validate() const {
     throw TopologyError("garment '" + name + "' is not a valid polygon mesh");
   if (!mesh_.is_empty() && !CGAL::is_triangle_mesh(mesh_))
     throw TopologyError("garment '" + name + "' has faces that are not triangles");
+  const std::vector<Vertex> bad = non_manifold_vertices(mesh_);
+  if (!bad.empty())
+    throw TopologyError("garment '" + name + "' has a non-manifold vertex " + std::to_string(bad.front().idx()));
   for (Vertex v : mesh_.vertices()) {
     if (mesh_.is_isolated(v))
       throw TopologyError("garment '" + name + "' has an isolated vertex " + std::to_string(v.idx()));
-    if (PMP::is_non_manifold_vertex(v, mesh_))
-      throw TopologyError("garment '" + name + "' has a non-manifold vertex " + std::to_string(v.idx()));
     if (!all_finite(position(v)) || !all_finite(velocity_[v]))
       throw InputError("garment '" + name + "' has a non-finite position or velocity at vertex " +
                        std::to_string(v.idx()));

@@ -7,7 +7,6 @@
 
 #include "kiji/error.h"
 
-#include <CGAL/Polygon_mesh_processing/manifoldness.h>
 #include <CGAL/boost/graph/helpers.h>
 
 #include <algorithm>
@@ -228,9 +227,10 @@ void commit(Garment& g, const Soup& s, const std::string& what) {
     }
     velocity[v] = s.vertices[i].velocity;
     inverse_mass[v] = s.vertices[i].inverse_mass;
-    if (PMP::is_non_manifold_vertex(v, m))
-      throw TopologyError(what + ": vertex " + std::to_string(i) + " would be non-manifold");
   }
+  const std::vector<Vertex> bad = non_manifold_vertices(m);
+  if (!bad.empty())
+    throw TopologyError(what + ": vertex " + std::to_string(bad.front().idx()) + " would be non-manifold");
   const double ratio = g.material().tear_ratio;
   for (Edge e : m.edges()) {
     const Halfedge h = m.halfedge(e);

@@ -17,6 +17,11 @@
 
 namespace kiji {
 
+// The vertices of a mesh that are non-manifold: whose faces do not form one fan (a "bowtie").
+// O(n): one pass counts each vertex's incoming halfedges, one circulation per vertex compares.
+// (CGAL's is_non_manifold_vertex allocates a map of every halfedge per call: O(n) a vertex.)
+std::vector<Vertex> non_manifold_vertices(const Mesh& mesh);
+
 class Garment {
  public:
   Garment();

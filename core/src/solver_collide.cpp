@@ -16,12 +16,14 @@
 namespace kiji::solver_detail {
 
 namespace {
-constexpr int kCluster = 32;
+constexpr int kCluster = 8;
 
-Box3 swept_box(const SolverArrays& s, int i, double pad) {
+// The box swept by vertex i over the step's predicted motion, grown by `pad` plus `slack` times
+// the motion (room for constraint corrections the prediction does not know).
+Box3 swept_box(const SolverArrays& s, int i, double pad, double slack = 0.5) {
   const Vec3& a = s.x[i];
   const Vec3 b = a + s.pred[i];
-  const double e = pad + 0.5 * s.pred[i].norm();
+  const double e = pad + slack * s.pred[i].norm();
   return Box3(a.cwiseMin(b) - Vec3::Constant(e), a.cwiseMax(b) + Vec3::Constant(e));
 }
 
@@ -179,7 +181,7 @@ void gather_self_pairs(SolverArrays& s, double thickness) {
     s.tri_leaf[t]->volume = to_bt(b);
   }
   for (std::size_t i = 0; i < s.vert_leaf.size(); ++i)
-    if (s.vert_leaf[i]) s.vert_leaf[i]->volume = to_bt(swept_box(s, static_cast<int>(i), thickness));
+    if (s.vert_leaf[i]) s.vert_leaf[i]->volume = to_bt(swept_box(s, static_cast<int>(i), thickness, 0.1));
   refit(s.tri_tree.m_root);
   refit(s.vert_tree.m_root);
   PairCollector pc;
@@ -230,7 +232,9 @@ void resolve_self(SolverArrays& s, double thickness) {
     const double wv = s.w[p.v], w0 = s.w[tri[0]], w1 = s.w[tri[1]], w2 = s.w[tri[2]];
     const double denom = wv + cp.b0 * cp.b0 * w0 + cp.b1 * cp.b1 * w1 + cp.b2 * cp.b2 * w2;
     if (!(denom > 0)) continue;
-    const double lambda = depth / denom;
+    // At most half the thickness per substep: a deeper push turns into a velocity kick (x - xp) / h
+    // that other contacts then push back against; spread over substeps it stays stable.
+    const double lambda = std::min(depth, 0.5 * th) / denom;
     xv += (wv * lambda) * dir;
     A -= (w0 * cp.b0 * lambda) * dir;
     B -= (w1 * cp.b1 * lambda) * dir;

@@ -1,0 +1,93 @@
+// Prints ms per step (1/60 s, default substeps) of both solver models on a hanging square cloth
+// at several sizes, without and with the default body, and a drape of a 1 m x 1 m cloth on the
+// default body. Figures only: nothing here is an assertion.
+//   solver_bench                 the table
+//   solver_bench drape [n [print_every [self_collision [substeps]]]]
+#include "kiji/body.h"
+#include "kiji/pattern.h"
+#include "kiji/solver.h"
+
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+
+using namespace kiji;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+// A square cloth of n x n vertices, 1 m wide, laid horizontally 5 cm above the body (its head).
+Garment cloth(int n, const Box3& body) {
+  Garment g = make_rectangle(1.0, 1.0, n, n);
+  const Vec3 c = body.center();
+  const double top = body.isEmpty() ? 1.6 : body.max().y();
+  for (Vertex v : g.mesh().vertices()) {
+    const Vec3 q = g.position(v);
+    g.set_position(v, Vec3(c.x() + q.x() - 0.5, top + 0.05, c.z() - (q.y() - 0.5)));
+  }
+  return g;
+}
+
+double ms_per_step(SolverModel model, int n, const Body* body, int warm, int steps, bool self = true) {
+  Box3 box;
+  if (body) box = body->bounds();
+  Garment g = cloth(n, box);
+  SolverParams p;
+  p.model = model;
+  if (model == SolverModel::MassSpring) p.spring_damping = 1.0, p.spring_k = 2000;
+  p.self_collision = self;
+  Solver solver(p);
+  solver.set_body(body);
+  for (int i = 0; i < warm; ++i) solver.step(g, 1.0 / 60);
+  const auto t0 = Clock::now();
+  for (int i = 0; i < steps; ++i) solver.step(g, 1.0 / 60);
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count() / steps;
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  const Body body = Body::load(Body::default_path());
+  if (argc > 1 && std::strcmp(argv[1], "drape") == 0) {
+    const int n = argc > 2 ? std::atoi(argv[2]) : 101;
+    const Box3 b = body.bounds();
+    // Over the head and shoulders: a 1 m square, 5 cm above the top of the head.
+    Garment g = cloth(n, b);
+    SolverParams p;
+    if (argc > 4) p.self_collision = std::atoi(argv[4]) != 0;
+    if (argc > 5) p.substeps = std::atoi(argv[5]);
+    Solver solver(p);
+    solver.set_body(&body);
+    const auto t0 = Clock::now();
+    for (int s = 1; s <= 180; ++s) {
+      solver.step(g, 1.0 / 60);
+      if (s % (argc > 3 ? std::atoi(argv[3]) : 30) == 0) {
+        const ClothMeasures m = solver.measure(g);
+        std::printf("t=%.1f s  KE %.3g J  max pen %.2f mm  max strain %.3f  mean strain %.4f  contacts %zu / %zu\n",
+                    s / 60.0, m.kinetic_energy, 1e3 * m.max_penetration, m.max_strain, m.mean_strain,
+                    m.contacts, m.vertices);
+        std::fflush(stdout);
+      }
+    }
+    std::printf("%.1f ms per step\n",
+                std::chrono::duration<double, std::milli>(Clock::now() - t0).count() / 180);
+    return 0;
+  }
+  if (argc > 2 && std::strcmp(argv[1], "cell") == 0) {  // solver_bench cell N xpbd|mass_spring body self
+    const int n = std::atoi(argv[2]);
+    const SolverModel model = parse_solver_model(argv[3]);
+    const bool on_body = std::atoi(argv[4]) != 0, self = std::atoi(argv[5]) != 0;
+    std::printf("%d vertices, %s, body %d, self %d: %.2f ms per step\n", n * n, argv[3], on_body, self,
+                ms_per_step(model, n, on_body ? &body : nullptr, 30, n > 100 ? 20 : 60, self));
+    return 0;
+  }
+  std::printf("%8s  %14s  %14s  %14s  %14s\n", "vertices", "xpbd free", "xpbd on body", "mass_spring", "mass_spr body");
+  for (int n : {23, 71, 141}) {
+    const int steps = n > 100 ? 20 : 60;
+    std::fflush(stdout);
+    std::printf("%8d  %14.2f  %14.2f  %14.2f  %14.2f\n", n * n,
+                ms_per_step(SolverModel::Xpbd, n, nullptr, 10, steps),
+                ms_per_step(SolverModel::Xpbd, n, &body, 30, steps),
+                ms_per_step(SolverModel::MassSpring, n, nullptr, 10, steps),
+                ms_per_step(SolverModel::MassSpring, n, &body, 30, steps));
+    std::fflush(stdout);
+  }
+}

@@ -53,6 +53,8 @@ void SolverParams::validate() const {
           "a positive finite spring constant (eq. 3 of the paper)");
   require(std::isfinite(spring_damping) && spring_damping >= 0, "spring_damping", spring_damping,
           "zero or a positive finite damping (gamma of eq. 1)");
+  require(std::isfinite(strain_limit) && strain_limit >= 0 && strain_limit < 1, "strain_limit", strain_limit,
+          "between 0 (off) and 1 (a fraction of the rest length)");
   require(std::isfinite(local_radius) && local_radius >= 0, "local_radius", local_radius,
           "zero (no local region) or a positive finite radius in metres");
   require(all_finite(local_center), "local_center", vec_text(local_center), "a finite point");

@@ -63,6 +63,7 @@ struct SolverArrays {
   };
   std::vector<Attach> attach;
   std::vector<std::array<int, 2>> tacks;
+  std::vector<int> over;  // edges beyond the strain limit this substep
 
   // ---- faces and adjacency ----
   std::vector<std::array<int, 3>> tris;

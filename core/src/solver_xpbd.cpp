@@ -24,6 +24,42 @@
 
 namespace kiji::solver_detail {
 
+namespace {
+
+// Projects every edge beyond (1 +- limit) x rest back to the limit; a few passes over the edges
+// found beyond it, since fixing one can push a neighbour past it.
+void limit_strain(SolverArrays& s, double limit) {
+  Vec3* X = s.x.data();
+  const double* W = s.w.data();
+  const int ne = static_cast<int>(s.e_i.size());
+  s.over.clear();
+  const double hi = 1 + limit, lo = 1 - limit;
+  for (int k = 0; k < ne; ++k) {
+    const double r = s.e_rest[k];
+    const double l2 = (X[s.e_i[k]] - X[s.e_j[k]]).squaredNorm();
+    if (l2 > hi * hi * r * r || l2 < lo * lo * r * r) s.over.push_back(k);
+  }
+  for (int pass = 0; pass < 4 && !s.over.empty(); ++pass) {
+    for (int k : s.over) {
+      const int i = s.e_i[k], j = s.e_j[k];
+      const double wi = W[i], wj = W[j];
+      const double wsum = wi + wj;
+      if (wsum == 0) continue;
+      const Vec3 d = X[i] - X[j];
+      const double len = d.norm();
+      if (!(len > 1e-12)) continue;
+      const double r = s.e_rest[k];
+      const double target = std::clamp(len, lo * r, hi * r);
+      if (target == len) continue;
+      const Vec3 corr = d * ((target - len) / (len * wsum));
+      X[i] += wi * corr;
+      X[j] -= wj * corr;
+    }
+  }
+}
+
+}  // namespace
+
 void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const BodyCollider* body,
                double dt) {
   const int substeps = p.substeps;
@@ -128,6 +164,7 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
       X[i] += W[i] * corr;
       X[j] -= W[j] * corr;
     }
+    if (p.strain_limit > 0) limit_strain(s, p.strain_limit);
     if (!s.self_pairs.empty()) resolve_self(s, th);
     for (int i : s.contact_verts) resolve_body(s, i, th, m.friction);
     const double inv_h = 1.0 / h;

@@ -4,13 +4,19 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
-ctest --test-dir build --output-on-failure -j "$(nproc)"
-# Run from tests/python's parent with the source tree's python/ kept off sys.path, so the tests see the
-# installed package only.
+# Both suites run whatever the first gives; the script fails if either does.
 set +e
+ctest --test-dir build --output-on-failure -j "$(nproc)"
+ctest_rc=$?
+# From the repository root: tests/python's conftest is on sys.path, the source tree's python/ is not,
+# so the tests import the package installed in .venv.
 .venv/bin/python -m pytest -q tests/python "$@"
 rc=$?
 set -e
+if [ "$ctest_rc" -ne 0 ]; then
+  echo "kiji test: ctest failed (exit $ctest_rc); pytest exit $rc" >&2
+  exit 1
+fi
 if [ "$rc" -eq 5 ]; then
   # pytest's 5 is "no tests collected": a failure when there are test files to collect.
   if compgen -G "tests/python/test_*.py" >/dev/null; then

@@ -163,6 +163,7 @@ def _make_tool_method(info: _kiji.ToolInfo) -> Callable[..., np.ndarray]:
 
     method.__name__ = tool_id
     method.__qualname__ = f"Session.{tool_id}"
+    method.__module__ = "kiji"
     method.__doc__ = tool_docstring(info)
     method.__signature__ = tool_signature(info)  # type: ignore[attr-defined]
     method._kiji_tool = tool_id  # type: ignore[attr-defined]
@@ -239,6 +240,7 @@ class Session(_kiji.Session):
         return image
 
 
+Session.__module__ = "kiji"
 _BUILT_IN_ATTRIBUTES = set(dir(Session))
 _installed: set[str] = set()
 

@@ -86,10 +86,11 @@ def _progress(settings: Settings, what: str):
     if not settings.verbose:
         return None
     last = [-1]
+    live = sys.stdout.isatty()
 
     def report(fraction: float) -> None:
         tenth = int(fraction * 10)
-        if tenth != last[0]:
+        if tenth != last[0] and (live or fraction >= 1):
             last[0] = tenth
             print(f"\r  {what}: {100 * fraction:3.0f} %", end="\n" if fraction >= 1 else "", flush=True)
 

@@ -72,6 +72,8 @@ function(kiji_add_tool id)
   set_property(TARGET ${target} PROPERTY KIJI_TOOL_METADATA ${metadata})
 
   if(NOT ARG_NO_INSTALL)
+    # The tools a build installs, for packages that carry them (the Python package).
+    set_property(GLOBAL APPEND PROPERTY KIJI_TOOL_TARGETS ${target})
     install(TARGETS ${target} LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}/kiji/plugins)
     install(FILES ${metadata} DESTINATION ${CMAKE_INSTALL_LIBDIR}/kiji/plugins)
   endif()

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# Kiji's main job: a design session on the default body that writes a garment and a picture.
-# For now the session is a drape: out/drape.glb and out/drape.png. Extra arguments go to 'kiji drape'.
+# Kiji's main job: the 2006 paper's experiment (its section 5) as a Python design session on the
+# default body - drape, cut away what is not needed, sew, paint letters - writing out/garment.glb and
+# out/garment.png. Extra arguments go to the experiment script (see its --help).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
-build/bin/kiji drape --out out/drape.glb --picture out/drape.png "$@"
+.venv/bin/kiji run python/kiji/examples/experiment.py --out out/garment.glb --picture out/garment.png "$@"

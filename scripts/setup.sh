@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs what Kiji needs on Debian 12 (apt packages) and builds it into build/.
+# Installs what Kiji needs on Debian 12 (apt packages), builds it into build/, and installs the Python
+# package into the virtual environment .venv (scripts/setup_python.sh).
 # Safe to run again: it installs only what is missing and rebuilds only what changed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -8,6 +9,7 @@ packages=(
   build-essential cmake ninja-build pkg-config git
   libeigen3-dev libcgal-dev libbullet-dev libassimp-dev assimp-testmodels
   libpng-dev zlib1g-dev libgtest-dev nlohmann-json3-dev
+  python3 python3-dev python3-venv
 )
 
 missing=()
@@ -22,5 +24,11 @@ if [ ${#missing[@]} -gt 0 ]; then
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
 fi
 
-cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
+scripts/setup_python.sh --venv
+# The Python module is built with the venv's interpreter and pybind11 (PyPI's: Debian's 2.10 crashes
+# converting NumPy 2 arrays), so that `pip install .` below finds everything already built.
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DKIJI_BUILD_PYTHON=ON \
+  -DPython_EXECUTABLE="$PWD/.venv/bin/python" \
+  -Dpybind11_DIR="$(.venv/bin/python -m pybind11 --cmakedir)" >/dev/null
 cmake --build build -j "$(nproc)"
+scripts/setup_python.sh

@@ -1,0 +1,62 @@
+"""The `kiji` command of the Python package: run a design script with the installed Kiji.
+
+    kiji run SCRIPT.py [ARGS...]   run a design script (as `python SCRIPT.py ARGS...` with kiji importable)
+    kiji experiment [ARGS...]      the paper's experiment (see `kiji experiment --help`)
+    kiji tools                     list the tools found, with their parameters
+    kiji stubgen [OUT.pyi]         regenerate the type stubs (include third-party tools)
+    kiji version                   print Kiji's version
+"""
+from __future__ import annotations
+
+import os
+import runpy
+import sys
+
+
+def _tools() -> int:
+    import kiji
+    for info in kiji.tools():
+        print(f"{info.id:8s} {info.label}: {info.description}")
+        for p in info.parameters:
+            rng = f" [{p.min:g}, {p.max:g}]" if p.min is not None else ""
+            choices = f" {{{', '.join(p.choices)}}}" if p.choices else ""
+            print(f"    {p.name} ({p.type}{rng}{choices}{' ' + p.unit if p.unit else ''}) = {p.default!r}: {p.help}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if not argv or argv[0] in ("-h", "--help", "help"):
+        print(__doc__.strip())
+        return 0 if argv else 2
+    command, rest = argv[0], argv[1:]
+    if command == "run":
+        if not rest:
+            print("usage: kiji run SCRIPT.py [ARGS...]", file=sys.stderr)
+            return 2
+        script = rest[0]
+        if not os.path.isfile(script):
+            print(f"kiji run: no such script: {script}", file=sys.stderr)
+            return 2
+        sys.argv = rest
+        sys.path.insert(0, os.path.dirname(os.path.abspath(script)))
+        runpy.run_path(script, run_name="__main__")
+        return 0
+    if command == "experiment":
+        from kiji.examples import experiment
+        return experiment.main(rest)
+    if command == "tools":
+        return _tools()
+    if command == "stubgen":
+        from kiji import stubgen
+        return stubgen.main(rest)
+    if command in ("version", "--version"):
+        import kiji
+        print(f"kiji {kiji.version()}")
+        return 0
+    print(f"kiji: unknown command '{command}'\n\n{__doc__.strip()}", file=sys.stderr)
+    return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,87 @@
+// Shared pieces of the pybind11 module: the garment handle, NumPy conversions with checks,
+// tool-parameter conversion and the progress hook that releases and re-takes the GIL.
+#pragma once
+
+#include "kiji/error.h"
+#include "kiji/garment.h"
+#include "kiji/params.h"
+#include "kiji/session.h"
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace py = pybind11;
+
+namespace kiji::python {
+
+// A garment as Python sees it: either its own (made by a pattern function or loaded from a file), or
+// the garment at an index of a session. Adding an own garment to a session moves it there and makes
+// the handle a view of the session's, so `g` keeps showing what the tools did to it.
+class GarmentRef {
+ public:
+  explicit GarmentRef(Garment g) : owned_(std::make_shared<Garment>(std::move(g))) {}
+  GarmentRef(std::shared_ptr<Session> session, std::size_t index) : session_(std::move(session)), index_(index) {}
+
+  Garment& get() const { return session_ ? session_->garment(index_) : *owned_; }
+  bool in_session() const { return session_ != nullptr; }
+  std::size_t index() const { return index_; }
+  const std::shared_ptr<Session>& session() const { return session_; }
+  void adopt(std::shared_ptr<Session> session, std::size_t index) {
+    owned_.reset();
+    session_ = std::move(session);
+    index_ = index;
+  }
+
+ private:
+  std::shared_ptr<Garment> owned_;
+  std::shared_ptr<Session> session_;
+  std::size_t index_ = 0;
+};
+
+// Live vertices in index order: row r of every per-vertex array is vertex rows[r].
+struct VertexRows {
+  std::vector<Vertex> vertices;
+  std::vector<long> row;  // by vertex index; -1 for a removed vertex
+  explicit VertexRows(const Garment& g);
+};
+
+// An (n, cols) float64 array from any real array-like: TypeError for a non-numeric one, InputError
+// for the wrong shape or a value that is not finite. cols == 0: a vector of length n.
+// n < 0: any number of rows.
+py::array_t<double, py::array::c_style> real_array(py::handle obj, const char* what, long n, long cols,
+                                                   bool finite = true);
+// Copies an Eigen-like row of three into a NumPy vector.
+py::array_t<double> vec3_array(const Vec3& v);
+Vec3 to_vec3(py::handle obj, const char* what);
+
+// Tool parameters from Python values, checked against the tool's declarations: TypeError for an
+// unknown name or a value of the wrong type, InputError (a ValueError) for one out of range.
+ParamSet params_from_python(const Session& session, const std::string& tool, const py::dict& values);
+py::object param_value_to_python(const ParamValue& value);
+std::map<std::string, ParamValue> param_map_from_python(const py::dict& values);
+py::dict param_map_to_python(const std::map<std::string, ParamValue>& values);
+
+// Progress and Ctrl-C for long work run with the GIL released: each call re-takes the GIL, raises
+// KeyboardInterrupt (as a thrown error_already_set) if a signal is pending, and calls the user's
+// callback with the fraction done; the callback may return False to stop early.
+class ProgressHook {
+ public:
+  explicit ProgressHook(py::object callback) : callback_(std::move(callback)) {}
+  bool operator()(double fraction) const;
+
+ private:
+  py::object callback_;
+};
+
+void bind_errors(py::module_& m);
+void bind_scene(py::module_& m);
+void bind_garment(py::module_& m);
+void bind_session(py::module_& m);
+
+}  // namespace kiji::python

@@ -1,0 +1,15 @@
+// The `kiji._kiji` extension module: libkiji for Python. The `kiji` package wraps it (tool methods,
+// stubs, examples); see python/kiji/__init__.py.
+#include "bindings.h"
+
+#include "kiji/version.h"
+
+PYBIND11_MODULE(_kiji, m) {
+  m.doc() = "Kiji's core: garments, bodies, the solver, tools, sessions and their journal.";
+  m.def("version", &kiji::version, "Kiji's version.");
+  m.def("abi_tag", &kiji::abi_tag, "The ABI tag that tool plugins must have been built with.");
+  kiji::python::bind_errors(m);
+  kiji::python::bind_scene(m);
+  kiji::python::bind_garment(m);
+  kiji::python::bind_session(m);
+}

@@ -1,0 +1,157 @@
+"""Garments as NumPy arrays (round trips, checked setters), patterns, materials, bodies, the solver."""
+import numpy as np
+import pytest
+
+import kiji
+
+
+def test_rectangle_arrays_round_trip():
+    g = kiji.rectangle(1.0, 0.5, nx=11, ny=6)
+    assert g.vertex_count == 66 and g.face_count == 100 and g.piece_count == 1
+    p = g.positions
+    assert p.shape == (66, 3) and p.dtype == np.float64
+    assert g.faces.shape == (100, 3) and g.faces.dtype == np.int64
+    assert g.uvs.shape == (100, 3, 2)
+    assert np.allclose(g.uvs[..., 0], p[g.faces][..., 0] / 1.0)  # uv = pattern metres / larger side
+    assert g.velocities.shape == (66, 3) and not g.velocities.any()
+    assert g.pins.dtype == np.bool_ and not g.pins.any()
+    assert g.texture is None
+    q = p + [0, 0, 0.25]
+    g.positions = q
+    assert np.array_equal(g.positions, q)
+    g.velocities = np.ones((66, 3))
+    assert np.array_equal(g.velocities, np.ones((66, 3)))
+    pins = np.zeros(66, bool)
+    pins[:5] = True
+    g.pins = pins
+    assert np.array_equal(g.pins, pins)
+    uv = g.uvs * 0.5
+    g.uvs = uv
+    assert np.array_equal(g.uvs, uv)
+    tex = np.zeros((8, 16, 4), np.uint8)
+    tex[..., 0] = 200
+    g.texture = tex
+    assert np.array_equal(g.texture, tex)
+    g.positions = p.astype(np.float32)  # any real dtype is converted
+    assert np.allclose(g.positions, p)
+
+
+def test_setters_check_shape_dtype_and_nan():
+    g = kiji.rectangle(1.0, 1.0, nx=3, ny=3)
+    before = g.positions
+    with pytest.raises(kiji.InputError, match="shape"):
+        g.positions = np.zeros((8, 3))
+    with pytest.raises(kiji.InputError, match="shape"):
+        g.positions = np.zeros((9, 2))
+    bad = before.copy()
+    bad[4, 1] = np.nan
+    with pytest.raises(kiji.InputError, match="finite"):
+        g.positions = bad
+    with pytest.raises(kiji.InputError, match="finite"):
+        g.velocities = np.full((9, 3), np.inf)
+    with pytest.raises(TypeError):
+        g.positions = np.array([["a"] * 3] * 9)
+    with pytest.raises(TypeError):
+        g.positions = "positions"
+    with pytest.raises(TypeError):
+        g.pins = np.zeros(9)
+    with pytest.raises(kiji.InputError):
+        g.pins = np.zeros(4, bool)
+    with pytest.raises(TypeError):
+        g.texture = np.zeros((4, 4, 4), np.float32)
+    with pytest.raises(kiji.InputError):
+        g.texture = np.zeros((4, 4, 3), np.uint8)
+    with pytest.raises(kiji.InputError):
+        g.uvs = np.zeros((3, 3, 2))
+    with pytest.raises(kiji.InputError):
+        g.color = (2, 0, 0)
+    assert np.array_equal(g.positions, before)
+    assert issubclass(kiji.InputError, ValueError) and issubclass(kiji.TopologyError, kiji.Error)
+
+
+def test_garment_from_arrays_and_topology_errors():
+    pos = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], float)
+    g = kiji.Garment(pos, np.array([[0, 1, 2], [1, 3, 2]]))
+    assert g.face_count == 2 and g.is_valid()
+    with pytest.raises(kiji.TopologyError):
+        kiji.Garment(pos, np.array([[0, 1, 2], [0, 1, 3]]))  # opposite orientations across an edge
+    with pytest.raises(kiji.TopologyError):
+        kiji.Garment(pos, np.array([[0, 1, 2]]))  # vertex 3 used by no face
+    with pytest.raises(kiji.InputError, match="vertex 7"):
+        kiji.Garment(pos, np.array([[0, 1, 7]]))
+    with pytest.raises(TypeError):
+        kiji.Garment(pos, np.array([[0.0, 1.0, 2.0]]))
+    with pytest.raises(kiji.InputError, match="finite"):
+        kiji.Garment(np.full((3, 3), np.nan), np.array([[0, 1, 2]]))
+
+
+def test_patterns_panel_and_rectangle_options():
+    g = kiji.panel([(0, 0), (0.4, 0), (0.4, 0.3), (0.2, 0.45), (0, 0.3)], 0.05, panel_id=2)
+    assert g.is_valid() and g.face_count > 20
+    assert np.allclose(g.positions[:, 2], 0)
+    r = kiji.rectangle(0.6, 0.4, spacing=0.1)
+    assert r.vertex_count == 7 * 5
+    with pytest.raises(TypeError):
+        kiji.rectangle(1, 1)
+    with pytest.raises(kiji.InputError):
+        kiji.panel([(0, 0), (1, 1)], 0.1)
+    with pytest.raises(kiji.InputError):
+        kiji.panel([(0, 0), (1, 0), (0, 1)], -1)
+
+
+def test_materials_and_solver_params():
+    assert set(kiji.Material.preset_names()) >= {"cotton", "silk", "denim", "rubber", "tissue"}
+    m = kiji.Material("silk", thickness=0.003)
+    assert m.name == "silk" and m.thickness == 0.003
+    with pytest.raises(kiji.InputError):
+        kiji.Material("velvet")
+    with pytest.raises(kiji.InputError, match="density"):
+        kiji.Material(density=-1)
+    with pytest.raises(TypeError):
+        kiji.Material(colour=1)
+    g = kiji.rectangle(0.2, 0.2, nx=3, ny=3)
+    g.material = kiji.Material("rubber")
+    assert g.material.name == "rubber"
+    p = kiji.SolverParams(model="mass_spring", substeps=4, gravity=(0, -1, 0))
+    assert p.model == "mass_spring" and p.substeps == 4 and np.array_equal(p.gravity, [0, -1, 0])
+    with pytest.raises(kiji.InputError):
+        kiji.SolverParams(model="verlet")
+    with pytest.raises(kiji.InputError):
+        kiji.SolverParams(substeps=0)
+    s = kiji.Session(solver=p)
+    assert s.solver_params.model == "mass_spring"
+    with pytest.raises(kiji.InputError):
+        s.frame_rate = 0
+
+
+def test_bodies_load_with_options_and_from_arrays(tmp_path):
+    b = kiji.Body.default()
+    assert 1.6 < b.height < 1.7 and b.vertices.shape[1] == 3 and b.triangles.shape[1] == 3
+    tall = kiji.Body.load(kiji.Body.default_path(), height=1.8)
+    assert tall.height == pytest.approx(1.8, rel=1e-6)
+    # A Z-up body file read with up='z' stands on +Y.
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 2.0]])
+    t = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    tet = kiji.Body.from_triangles(v, t, name="tet")
+    assert tet.name == "tet" and tet.height == pytest.approx(1.0)
+    path = tmp_path / "tet.obj"
+    path.write_text("".join(f"v {x} {y} {z}\n" for x, y, z in v) + "".join(f"f {a+1} {b+1} {c+1}\n" for a, b, c in t))
+    zup = kiji.Body.load(str(path), up="z", scale=0.5)
+    assert zup.height == pytest.approx(1.0) and zup.report["up_source"] == "option"
+    with pytest.raises(kiji.InputError):
+        kiji.Body.load(str(tmp_path / "missing.obj"))
+    with pytest.raises(kiji.InputError):
+        kiji.Body.load(str(path), up="sideways")
+    with pytest.raises(kiji.InputError):
+        kiji.Body.from_triangles(v, np.array([[0, 1, 9]]))
+
+
+def test_drape_on_a_body_rests_on_it():
+    s = kiji.Session(body=kiji.Body.default())
+    g = s.add_garment(kiji.rectangle(0.5, 0.5, spacing=0.05))
+    s.drape(seconds=1.0)
+    m = s.measure()
+    assert m.contacts > 0
+    assert m.max_penetration < g.material.thickness
+    assert g.bounds[0, 1] > 0.5, "it rests on the shoulders, it did not fall through"
+    assert s.time == pytest.approx(1.0)

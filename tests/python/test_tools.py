@@ -1,0 +1,207 @@
+"""The tools driven from Python give what tests/test_tools.cpp checks in C++, case by case."""
+import numpy as np
+import pytest
+
+import kiji
+from conftest import flat_session, line, nearest_row, run_and_check_undo
+
+
+def test_all_six_tools_are_found_as_plugins():
+    ids = [t.id for t in kiji.tools()]
+    for tool in ("cut", "paint", "pin", "pinch", "sew", "tear"):
+        assert tool in ids
+        assert "kiji_" + tool in kiji.registry().origin(tool)
+        assert kiji.PACKAGE_PLUGIN_FOLDER in kiji.registry().origin(tool), "found in the installed package"
+        for p in kiji.tool_info(tool).parameters:
+            assert p.help, f"{tool}.{p.name}"
+
+
+def test_pinch_grabbed_vertex_follows_and_feedback_is_the_spring_force():
+    s = kiji.Session()
+    g = kiji.rectangle(0.5, 0.5, nx=21, ny=21)
+    g.pins = g.positions[:, 1] > 0.499  # hang it by the top row
+    s.add_garment(g)
+    start = g.positions[nearest_row(g, (0.25, 0.0, 0))]
+    k = 2000.0
+    goal = start + np.array([0, 0.05, 0.15])
+    pull = line(start, goal, 60)
+    points = np.vstack([pull, np.repeat(goal[None], 61, axis=0)])  # a second's pull, then hold a second
+    grabbed = nearest_row(g, start)
+    # After every event (the progress callback), where the grabbed vertex is.
+    seen = []
+    f = s.pinch(points, times=np.arange(len(points)) / 60.0, stiffness=k,
+                progress=lambda fraction: seen.append(g.positions[grabbed]))
+    assert f.shape == (len(points), 3)
+    for i in range(len(points) - 1):  # the end event releases the cloth: no force
+        assert np.linalg.norm(f[i] - k * (seen[i] - points[i])) < 1e-9, "feedback is k (vertex - pointer)"
+    assert np.linalg.norm(g.positions[grabbed] - goal) < 0.01, "the vertex followed the pointer"
+
+
+def test_pinch_with_a_local_radius_nothing_outside_moves():
+    s, g = flat_session(1.0, 1.0, 21, 21)
+    before = g.positions
+    start = np.array([0.5, 0.5, 0])
+    s.pinch(line(start, start + [0, 0, 0.1], 30), stiffness=500.0, local_radius=0.2)
+    after = g.positions
+    r = np.linalg.norm(before - start, axis=1)
+    outside = r > 0.2 + 0.1 + 1e-9
+    assert np.array_equal(after[outside], before[outside])
+    assert ((r < 0.1) & (after != before).any(axis=1)).sum() > 5
+
+
+def test_pinch_whole_mode_carries_the_garment():
+    s, g = flat_session(1.0, 1.0, 11, 11)
+    s.simulating = False
+    before = g.positions
+    run_and_check_undo(s, g, "pinch", line((0.5, 0.5, 0), (0.7, 0.5, 0.3), 10), mode="whole")
+    assert np.abs(g.positions - (before + [0.2, 0, 0.3])).max() < 1e-12
+
+
+def pulled(material, mode):
+    s = kiji.Session()
+    g = kiji.rectangle(0.4, 0.4, nx=21, ny=21, material=material)
+    g.pins = g.positions[:, 1] > 0.399
+    s.add_garment(g)
+    start = np.array([0.2, 0.0, 0])
+    s.tear(line(start, start + [0, -0.04, 0], 60), mode=mode)
+    return g
+
+
+def test_tear_a_strong_pull_tears_fragile_cloth_and_not_rubber():
+    rubber = pulled(kiji.Material("rubber"), "remove")
+    assert rubber.is_valid() and rubber.face_count == 800, "rubber stretches and holds"
+    tissue = pulled(kiji.Material("tissue"), "remove")
+    assert tissue.is_valid() and tissue.face_count < 800, "tissue tears: edges and their faces go"
+
+
+def test_tear_split_mode_opens_the_cloth_and_loses_no_face():
+    tissue = pulled(kiji.Material("tissue"), "split")
+    assert tissue.is_valid()
+    assert tissue.face_count == 800
+    assert tissue.vertex_count > 441
+
+
+def test_cut_a_stroke_across_a_rectangle_makes_two_pieces_keeping_every_face():
+    s, g = flat_session(1.0, 1.0, 21, 21)
+    s.simulating = False
+    faces = g.face_count
+    run_and_check_undo(s, g, "cut", line((-0.1, 0.52, 0.01), (1.1, 0.52, 0.01), 40))
+    assert g.is_valid()
+    assert g.piece_count == 2
+    assert g.face_count == faces
+
+
+def test_cut_vertex_mode_splits_the_picked_vertex_as_the_paper_does():
+    s, g = flat_session(1.0, 1.0, 11, 11)
+    s.simulating = False
+    run_and_check_undo(s, g, "cut", line((0.5, 0, 0), (0.5, 0.1, 0), 3), mode="vertex")
+    assert g.is_valid()
+    assert g.vertex_count == 122
+    assert len(g.border_loops()[0]) == 42, "the border runs into the cut"
+
+
+def test_sew_a_rectangle_sewn_edge_to_edge_becomes_a_tube():
+    s, g = flat_session(1.0, 0.5, 11, 6)
+    s.simulating = False
+    for j in range(6):
+        y = 0.1 * j
+        up = line((0, y, 0), (0.5, y, 0.4), 10)
+        down = line((0.5, y, 0.4), (1.0, y, 0), 10)
+        s.sew(np.vstack([up[:-1], down]), distance=0.02)
+    assert g.is_valid()
+    assert g.piece_count == 1
+    assert len(g.border_loops()) == 2, "a tube has two border loops"
+    assert len(g.tacks) == 0, "every tack closed into the seam"
+    s.undo()
+    assert g.is_valid()
+
+
+def test_sew_two_panels_along_a_seam_leave_no_border_along_it():
+    a = kiji.rectangle(0.5, 1.0, nx=6, ny=11)
+    b = kiji.rectangle(0.5, 1.0, nx=6, ny=11)
+    b.translate((0.6, 0, 0))
+    # One garment of two panels, from the arrays of both.
+    faces = np.vstack([a.faces, b.faces + a.vertex_count])
+    both = kiji.Garment(np.vstack([a.positions, b.positions]), faces, uvs=np.concatenate([a.uvs, b.uvs]))
+    s = kiji.Session()
+    g = s.add_garment(both)
+    s.simulating = False
+    first = line((0.5, 0, 0.005), (0.5, 1.0, 0.005), 10)
+    second = line((0.6, 0, 0.005), (0.6, 1.0, 0.005), 10)
+    run_and_check_undo(s, g, "sew", np.vstack([first, second]), buttons=[1] * 11 + [2] * 11, mode="seam")
+    assert g.is_valid()
+    assert g.piece_count == 1
+    assert len(g.border_loops()) == 1
+    p = g.positions
+    border = np.zeros(g.vertex_count, bool)
+    for loop in g.border_loops():
+        border[loop] = True
+    seam = (p[:, 1] > 0.05) & (p[:, 1] < 0.95) & (p[:, 0] > 0.45) & (p[:, 0] < 0.65)
+    assert not border[seam].any()
+
+
+def test_paint_texels_under_the_stroke_follow_the_cloth_and_are_exported(tmp_path):
+    s, g = flat_session(1.0, 1.0, 21, 21)
+    s.simulating = False
+    run_and_check_undo(s, g, "paint", line((0.2, 0.3, 0.002), (0.8, 0.3, 0.002), 30),
+                       color=(0, 0, 1), radius=0.02, resolution=256)
+    t = g.texture
+    assert t.shape == (256, 256, 4) and t.dtype == np.uint8
+
+    def texel(u, v):
+        return t[int(v * 256), int(u * 256)]
+
+    for u in (0.25, 0.5, 0.75):
+        assert texel(u, 0.3)[2] == 255 and texel(u, 0.3)[0] == 0
+    assert texel(0.5, 0.6)[2] != 255
+    assert texel(0.9, 0.3)[2] != 255
+    under = g.positions[nearest_row(g, (0.5, 0.3, 0))]
+    c, sn = np.cos(0.7), np.sin(0.7)
+    m = np.array([[c, 0, sn, 0.3], [0, 1, 0, -0.2], [-sn, 0, c, 0.5], [0, 0, 0, 1.0]])
+    g.transform(m)
+    moved = m[:3, :3] @ under + m[:3, 3]
+    hit = s.pick(moved + [0, 0, 0.001])
+    assert hit
+    assert texel(*hit.uv)[2] == 255
+    path = str(tmp_path / "painted.glb")
+    g.export(path)
+    back = kiji.load_garment(path)
+    assert np.array_equal(back.texture, t)
+
+
+def test_paint_touching_the_cloth_pushes_back_along_its_normal():
+    s, g = flat_session(1.0, 1.0, 11, 11)
+    s.simulating = False
+    f = s.paint([(0.5, 0.5, 0.004)], touch_distance=0.01, stiffness=100.0)
+    assert f[0, 2] == pytest.approx(100.0 * (0.01 - 0.004), abs=1e-9)
+    assert np.linalg.norm(f[0, :2]) < 1e-12
+
+
+def test_pin_pins_and_unpins_the_cloth_under_the_brush():
+    s, g = flat_session(1.0, 1.0, 21, 21)
+    s.simulating = False
+    run_and_check_undo(s, g, "pin", line((0, 1, 0.01), (1, 1, 0.01), 20), radius=0.03)
+    top = g.positions[:, 1] > 0.95
+    assert np.array_equal(g.pins, top)
+    assert g.pins.sum() == 21
+    s.simulating = True
+    s.solver_params = kiji.SolverParams()
+    corner = g.positions[nearest_row(g, (0, 1, 0))]
+    s.step(30)
+    assert np.array_equal(g.positions[nearest_row(g, corner)], corner)
+    s.pin([(0.5, 0.5, 0.0)], mode="unpin", radius=1.0)
+    assert not g.pins.any()
+    s.step(30)
+    assert g.bounds[1, 1] < 0.9, "freed, the top falls too"
+
+
+def test_cancel_restores_the_garment():
+    s, g = flat_session(1.0, 1.0, 11, 11)
+    s.simulating = False
+    before = g.positions
+    pts = line((0.5, 0.5, 0), (0.9, 0.5, 0), 5)
+    phases = ["begin"] + ["move"] * 4 + ["cancel"]
+    events = [kiji.ToolEvent(ph, p) for ph, p in zip(phases, pts)]
+    s.pinch(events, mode="whole")
+    assert np.array_equal(g.positions, before)
+    assert not s.can_undo, "a cancelled stroke is not journaled"

@@ -103,3 +103,19 @@ TEST(Cli, ToolsListsThePluginsWithTheirParameters) {
   EXPECT_NE(r.out.find("0 tools"), std::string::npos);
   EXPECT_NE(r.out.find("/nonexistent: plugin folder does not exist"), std::string::npos) << r.out;
 }
+
+TEST(Cli, BenchPrintsEveryFigureAsJson) {
+  CliRun r = run("bench --quick --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const char* field :
+       {"\"paper\":", "\"tool_rates\":", "\"vertices\": 289", "\"pinch\": {\"steps_per_second\":", "\"tear\":",
+        "\"cut\":", "\"sew\":", "\"paint\":", "\"frames_per_second\":", "\"versus_bullet\":", "\"xpbd\":",
+        "\"mass_spring\":", "\"bullet\":", "\"speedup_xpbd_over_bullet\":", "\"max_strain\":", "\"sag_m\":",
+        "\"haptics\":", "\"loop_hz\":", "\"jitter_us\":", "\"force_median_us\":", "\"force_p99_us\":",
+        "\"scaling\":", "\"ms_per_step\":", "\"bytes_per_vertex\":"})
+    EXPECT_NE(r.out.find(field), std::string::npos) << field << " missing";
+  EXPECT_EQ(r.out.find("null"), std::string::npos) << "every figure measured: " << r.out;
+  r = run("bench --sizes 3,x");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("--sizes expects vertex counts"), std::string::npos) << r.out;
+}

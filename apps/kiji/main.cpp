@@ -17,6 +17,7 @@ const char* kUsage =
     "commands:\n"
     "  drape     drop a flat garment on a body, let it settle, write the result\n"
     "  tools     list the tool plugins found, with their parameters\n"
+    "  bench     measure this machine: the paper's tables, Bullet's cloth, haptics, scaling\n"
     "  version   print Kiji's version\n"
     "\n"
     "'kiji COMMAND --help' describes a command's options.\n";
@@ -34,6 +35,7 @@ int main(int argc, char** argv) {
   try {
     if (command == "drape") return kiji::cli::drape_command(args);
     if (command == "tools") return kiji::cli::tools_command(args);
+    if (command == "bench") return kiji::cli::bench_command(args);
     if (command == "version" || command == "--version") {
       std::printf("kiji %s\n", kiji::version());
       return 0;

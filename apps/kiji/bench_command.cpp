@@ -1,0 +1,388 @@
+// kiji bench: figures for this machine, measured, never typed in. The paper's tables 1-2 (the rate
+// while each tool is in use) at its sizes and a hundred times larger, Kiji's solvers beside Bullet's
+// own cloth (btSoftBody) on the same cloth, the haptic loop, and scaling with the vertex count.
+#include "args.h"
+#include "commands.h"
+#include "kiji/body.h"
+#include "kiji/drape.h"
+#include "kiji/error.h"
+#include "kiji/haptics.h"
+#include "kiji/pattern.h"
+#include "kiji/render.h"
+#include "kiji/session.h"
+
+#include <BulletCollision/BroadphaseCollision/btDbvtBroadphase.h>
+#include <BulletDynamics/ConstraintSolver/btSequentialImpulseConstraintSolver.h>
+#include <BulletSoftBody/btSoftBodyHelpers.h>
+#include <BulletSoftBody/btSoftBodyRigidBodyCollisionConfiguration.h>
+#include <BulletSoftBody/btSoftRigidDynamicsWorld.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+#include <thread>
+#include <malloc.h>
+
+namespace kiji::cli {
+
+namespace {
+
+static_assert(sizeof(btScalar) == 8, "Kiji uses Bullet in double precision");
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+std::string num(double x) {
+  if (!std::isfinite(x)) return "null";
+  char b[64];
+  std::snprintf(b, sizeof b, "%.6g", x);
+  return b;
+}
+
+// A JSON object built field by field.
+class Json {
+ public:
+  Json& field(const std::string& k, const std::string& raw) {
+    text_ += (text_.empty() ? "" : ", ") + ("\"" + k + "\": ") + raw;
+    return *this;
+  }
+  Json& number(const std::string& k, double v) { return field(k, num(v)); }
+  Json& string(const std::string& k, const std::string& v) { return field(k, "\"" + v + "\""); }
+  std::string str() const { return "{" + text_ + "}"; }
+
+ private:
+  std::string text_;
+};
+
+std::string array(const std::vector<std::string>& items) {
+  std::string s = "[";
+  for (std::size_t i = 0; i < items.size(); ++i) s += (i ? ", " : "") + items[i];
+  return s + "]";
+}
+
+// Bytes in use on the heap (glibc's count): what a garment and its solver take.
+double heap_bytes() { return static_cast<double>(mallinfo2().uordblks); }
+
+// A square-ish rectangle of about `vertices` vertices, 1 m wide.
+Garment cloth_of(int vertices, const Material& m = {}) {
+  const int n = std::max(2, static_cast<int>(std::lround(std::sqrt(double(vertices)))));
+  return make_rectangle(1.0, 1.0, n, n, m);
+}
+
+// ---- 1. the paper's tables: each tool in use on a garment on the body ----
+
+struct ToolRate {
+  std::string tool;
+  double steps_per_second = 0, frames_per_second = 0;
+};
+
+// The paper's own figures (its table 1, without and with edge and vertex drawing), for V = 289,
+// 400, 521.
+const char* kPaperTable =
+    "{\"sizes\": [289, 400, 521], \"without_edges\": {\"pinch\": [32, 18, 10], \"tear\": [32, 18, 10], "
+    "\"cut\": [65, 65, 65], \"sew\": [64, 46, 32], \"paint\": [25, 22, 22]}, \"with_edges\": {\"pinch\": [22, 13, 7], "
+    "\"tear\": [22, 13, 7], \"cut\": [53, 33, 33], \"sew\": [33, 27, 18], \"paint\": [22, 18, 17]}}";
+
+std::vector<ToolRate> tool_rates(const Body& body, int vertices, int frames, std::shared_ptr<ToolRegistry> tools) {
+  std::vector<ToolRate> out;
+  for (const std::string tool : {"pinch", "tear", "cut", "sew", "paint"}) {
+    Session s(tools);
+    s.set_body(body);
+    Garment g = cloth_of(vertices);
+    place_over_body(g, body);
+    s.add_garment(std::move(g));
+    for (int i = 0; i < 10; ++i) s.step();  // falling onto the body
+    // A stroke across the front of the cloth near the top of the body.
+    const Box3 b = s.garment(0).bounds();
+    const Vec3 a(b.center().x() - 0.2, b.max().y(), b.max().z() + 0.002), z(b.center().x() + 0.2, b.max().y() - 0.05, b.max().z() + 0.002);
+    ParamSet p = s.params_for(tool);
+    const Camera cam = Camera::framing(body.bounds());
+    double step_s = 0, frame_s = 0;
+    for (int f = 0; f <= frames; ++f) {
+      ToolEvent e;
+      e.phase = f == 0 ? Phase::Begin : (f == frames ? Phase::End : Phase::Move);
+      e.time = s.time() + 1.0 / s.frame_rate();
+      e.position = a + (z - a) * (double(f) / frames);
+      e.ray = Vec3(0, 0, -1);  // the pen points into the cloth, like a mouse's pick ray
+      const auto t0 = Clock::now();
+      s.apply(tool, e, &p);  // advances the simulation one step, then the tool acts
+      step_s += seconds_since(t0);
+      const auto t1 = Clock::now();
+      const Garment& gg = s.garment(0);
+      render({&gg}, &body, cam, 320, 240);
+      frame_s += seconds_since(t1);
+    }
+    out.push_back({tool, (frames + 1) / step_s, (frames + 1) / (step_s + frame_s)});
+  }
+  return out;
+}
+
+// ---- 2. Kiji beside btSoftBody on the same cloth ----
+
+struct ClothResult {
+  double ms_per_step = 0, max_strain = 0, mean_strain = 0, sag = 0;
+};
+
+// A horizontal cloth 1 m square, pinned at two corners, 2 s under gravity at 60 steps a second.
+ClothResult run_kiji(int n, SolverModel model, int steps) {
+  Garment g = make_rectangle(1.0, 1.0, n, n);
+  // Lay it flat (pattern y -> world -z) and pin the corners (0,0) and (1,0) as Bullet's fixeds 1+2.
+  Eigen::Matrix3d r;
+  r << 1, 0, 0, 0, 0, 1, 0, -1, 0;
+  g.transform(Eigen::Affine3d(r));
+  Vertex centre;
+  double best = 1e9;
+  for (Vertex v : g.mesh().vertices()) {
+    const Vec3 p = g.position(v);
+    if (std::abs(p.z()) < 1e-9 && (p.x() < 1e-9 || p.x() > 1 - 1e-9)) g.set_pinned(v, true);
+    const double d = (p - Vec3(0.5, 0, -0.5)).norm();
+    if (d < best) best = d, centre = v;
+  }
+  SolverParams params;
+  params.model = model;
+  params.self_collision = false;
+  params.body_collision = false;
+  params.substeps = 10;
+  if (model == SolverModel::MassSpring) {
+    params.spring_k = 2000;  // the paper's unit masses: a stiff spring, the paper's explicit steps
+    params.spring_damping = 2.0;
+    params.substeps = 40;
+  }
+  Solver solver(params);
+  const auto t0 = Clock::now();
+  for (int i = 0; i < steps; ++i) solver.step(g, 1.0 / 60);
+  ClothResult res;
+  res.ms_per_step = 1000 * seconds_since(t0) / steps;
+  double sum = 0;
+  for (Edge e : g.mesh().edges()) {
+    res.max_strain = std::max(res.max_strain, std::abs(g.strain(e)));
+    sum += std::abs(g.strain(e));
+  }
+  res.mean_strain = sum / g.mesh().number_of_edges();
+  res.sag = -g.position(centre).y();
+  return res;
+}
+
+ClothResult run_bullet(int n, int steps) {
+  btSoftBodyRigidBodyCollisionConfiguration config;
+  btCollisionDispatcher dispatcher(&config);
+  btDbvtBroadphase broadphase;
+  btSequentialImpulseConstraintSolver solver;
+  btSoftRigidDynamicsWorld world(&dispatcher, &broadphase, &solver, &config);
+  world.setGravity(btVector3(0, -9.81, 0));
+  btSoftBodyWorldInfo& info = world.getWorldInfo();
+  info.m_gravity = btVector3(0, -9.81, 0);
+  info.m_sparsesdf.Initialize();
+  // Corners: (0,0,0) (1,0,0) (0,0,-1) (1,0,-1); fixeds 1 + 2 pin the first two.
+  btSoftBody* cloth = btSoftBodyHelpers::CreatePatch(info, btVector3(0, 0, 0), btVector3(1, 0, 0),
+                                                     btVector3(0, 0, -1), btVector3(1, 0, -1), n, n, 1 + 2, true);
+  cloth->m_cfg.piterations = 10;
+  cloth->generateBendingConstraints(2);
+  cloth->setTotalMass(0.15);  // cotton, 0.15 kg/m^2
+  world.addSoftBody(cloth);
+  const auto t0 = Clock::now();
+  for (int i = 0; i < steps; ++i) world.stepSimulation(1.0 / 60, 0);
+  ClothResult res;
+  res.ms_per_step = 1000 * seconds_since(t0) / steps;
+  double sum = 0;
+  int count = 0;
+  for (int i = 0; i < cloth->m_links.size(); ++i) {
+    const btSoftBody::Link& l = cloth->m_links[i];
+    if (l.m_bbending) continue;  // the structural links only, like Kiji's edges
+    const double len = (l.m_n[0]->m_x - l.m_n[1]->m_x).length();
+    const double s = std::abs(len / l.m_rl - 1);
+    res.max_strain = std::max(res.max_strain, s);
+    sum += s;
+    ++count;
+  }
+  res.mean_strain = count ? sum / count : 0;
+  const int centre = (n / 2) * n + n / 2;
+  res.sag = -cloth->m_nodes[centre].m_x.y();
+  world.removeSoftBody(cloth);
+  delete cloth;
+  return res;
+}
+
+std::string cloth_json(const ClothResult& r) {
+  return Json().number("ms_per_step", r.ms_per_step).number("max_strain", r.max_strain)
+      .number("mean_strain", r.mean_strain).number("sag_m", r.sag).str();
+}
+
+// ---- 3. haptics: the force callback and the loop while a 20k garment simulates ----
+
+HapticStats haptics(const Body& body, int vertices, double seconds, std::shared_ptr<ToolRegistry> tools,
+                    double* sim_ms) {
+  Session s(tools);
+  s.set_body(body);
+  Garment g = cloth_of(vertices);
+  place_over_body(g, body);
+  s.add_garment(std::move(g));
+  for (int i = 0; i < 5; ++i) s.step();
+  const Box3 b = s.garment(0).bounds();
+  const Vec3 grab(b.center().x(), b.max().y(), b.center().z());
+  ParamSet p = s.params_for("pinch", {{"stiffness", 100.0}});
+  ToolEvent e;
+  e.phase = Phase::Begin;
+  e.position = grab;
+  s.apply("pinch", e, &p);
+  ScriptedDevice device([&](double t) {
+    ToolEvent d;
+    d.position = grab + Vec3(0.05 * std::sin(2 * t), 0.05 * std::sin(3 * t), 0.02);
+    return d;
+  });
+  HapticLoop loop(device);
+  loop.set_tool(&s.tool("pinch"));
+  loop.publish(std::make_shared<HapticSnapshot>(take_snapshot(s, 0, grab, 0.1)));
+  loop.start();
+  // The simulation thread: events from the device's latest sample, a step, a new snapshot.
+  const auto t0 = Clock::now();
+  int steps = 0;
+  double stepping = 0;
+  while (seconds_since(t0) < seconds) {
+    ToolEvent m = loop.latest_sample();
+    m.phase = Phase::Move;
+    m.time = s.time() + 1.0 / s.frame_rate();
+    const auto ts = Clock::now();
+    s.apply("pinch", m);
+    stepping += seconds_since(ts);
+    ++steps;
+    loop.publish(std::make_shared<HapticSnapshot>(take_snapshot(s, 0, m.position, 0.1)));
+  }
+  loop.stop();
+  e.phase = Phase::End;
+  e.time = s.time();
+  s.apply("pinch", e);
+  *sim_ms = steps ? 1000 * stepping / steps : 0;
+  return loop.stats();
+}
+
+}  // namespace
+
+int bench_command(const std::vector<std::string>& argv) {
+  const Args args(argv, {"--sizes", "--bullet-sizes", "--scaling-sizes", "--haptic-vertices", "--haptic-seconds", "--frames"},
+                  {"--json", "--quick", "--help", "-h"});
+  if (args.has("--help") || args.has("-h")) {
+    std::puts(
+        "usage: kiji bench [--json] [--quick] [--sizes V,V,...] [--bullet-sizes V,...] [--scaling-sizes V,...]\n"
+        "                  [--haptic-vertices V] [--haptic-seconds S] [--frames N]\n\n"
+        "Measures on this machine: (1) the paper's tables 1-2, steps and frames a second while each tool is in\n"
+        "use, on the default body; (2) Kiji's solvers beside Bullet's btSoftBody on the same cloth; (3) the\n"
+        "haptic loop while a garment simulates; (4) time per step and memory per vertex against size.\n"
+        "--quick uses tiny sizes (a check that everything runs, not figures to quote).");
+    return 0;
+  }
+  const bool quick = args.has("--quick");
+  auto sizes_of = [&](const std::string& name, const std::vector<int>& full, const std::vector<int>& small) {
+    if (!args.has(name)) return quick ? small : full;
+    std::vector<int> out;
+    std::stringstream ss(args.get(name, ""));
+    std::string item;
+    while (std::getline(ss, item, ',')) {
+      try {
+        const int v = std::stoi(item);
+        if (v < 4 || v > 2'000'000) throw std::out_of_range(item);
+        out.push_back(v);
+      } catch (const std::exception&) {
+        throw UsageError(name + " expects vertex counts between 4 and 2,000,000, not '" + item + "'");
+      }
+    }
+    return out;
+  };
+  const auto tool_sizes = sizes_of("--sizes", {289, 400, 521, 5000, 20000, 50000}, {289, 400});
+  const auto bullet_sizes = sizes_of("--bullet-sizes", {500, 5000, 20000, 50000}, {100, 400});
+  const auto scaling_sizes = sizes_of("--scaling-sizes", {500, 2000, 5000, 20000, 50000, 100000}, {100, 400});
+  const int haptic_vertices = static_cast<int>(args.number("--haptic-vertices", quick ? 400 : 20000));
+  const double haptic_seconds = args.number("--haptic-seconds", quick ? 0.3 : 3.0);
+  const int frames = static_cast<int>(args.number("--frames", quick ? 3 : 30));
+  if (frames < 1 || haptic_seconds <= 0 || haptic_vertices < 4)
+    throw UsageError("--frames, --haptic-seconds and --haptic-vertices must be positive");
+  const bool json = args.has("--json");
+  auto say = [&](const char* fmt, auto... a) {
+    if (!json) std::printf(fmt, a...);
+    std::fflush(stdout);
+  };
+
+  const Body body = Body::load(Body::default_path());
+  auto tools = std::make_shared<ToolRegistry>();
+  tools->load_plugins();
+  for (const char* t : {"pinch", "tear", "cut", "sew", "paint"})
+    if (!tools->has(t)) throw InputError(std::string("the '") + t + "' tool plugin was not found: build the plugins or set KIJI_PLUGIN_PATH");
+
+  // 1. The paper's tables.
+  say("1. the paper's tables 1-2: steps / frames a second while each tool is in use, on %s\n", body.name().c_str());
+  std::vector<std::string> table;
+  for (int v : tool_sizes) {
+    const auto rates = tool_rates(body, v, frames, tools);
+    Json row;
+    row.number("vertices", double(v));
+    say("   V = %6d:", v);
+    for (const auto& r : rates) {
+      row.field(r.tool, Json().number("steps_per_second", r.steps_per_second).number("frames_per_second", r.frames_per_second).str());
+      say("  %s %.1f/%.1f", r.tool.c_str(), r.steps_per_second, r.frames_per_second);
+    }
+    say("\n");
+    table.push_back(row.str());
+  }
+
+  // 2. Beside btSoftBody.
+  say("2. the same cloth (1 m, two corners pinned, 2 s at 60 Hz): ms a step, max/mean strain, sag\n");
+  std::vector<std::string> versus;
+  const int steps = quick ? 10 : 120;
+  for (int v : bullet_sizes) {
+    const int n = std::max(2, static_cast<int>(std::lround(std::sqrt(double(v)))));
+    const ClothResult x = run_kiji(n, SolverModel::Xpbd, steps);
+    const ClothResult m = run_kiji(n, SolverModel::MassSpring, steps);
+    const ClothResult b = run_bullet(n, steps);
+    const double ratio = b.ms_per_step / x.ms_per_step;
+    say("   V = %6d: xpbd %.2f ms (%.3f/%.4f, %.3f m)  mass_spring %.2f ms (%.3f/%.4f)  btSoftBody %.2f ms (%.3f/%.4f, %.3f m)  speed-up %.2fx\n",
+        n * n, x.ms_per_step, x.max_strain, x.mean_strain, x.sag, m.ms_per_step, m.max_strain, m.mean_strain,
+        b.ms_per_step, b.max_strain, b.mean_strain, b.sag, ratio);
+    versus.push_back(Json().number("vertices", double(n * n)).field("xpbd", cloth_json(x)).field("mass_spring", cloth_json(m))
+                         .field("bullet", cloth_json(b)).number("speedup_xpbd_over_bullet", ratio).str());
+  }
+
+  // 3. Haptics.
+  double sim_ms = 0;
+  const HapticStats h = haptics(body, haptic_vertices, haptic_seconds, tools, &sim_ms);
+  say("3. haptics on %d vertices: loop %.0f Hz (jitter %.1f us), force callback median %.2f us, p99 %.2f us; "
+      "simulation %.1f ms a step\n", haptic_vertices, h.rate_hz, h.period_jitter_us, h.force_median_us, h.force_p99_us, sim_ms);
+
+  // 4. Scaling.
+  say("4. scaling (xpbd, cloth falling onto the body, 10 steps each)\n");
+  std::vector<std::string> scaling;
+  for (int v : scaling_sizes) {
+    const double before = heap_bytes();
+    Garment g = cloth_of(v);
+    place_over_body(g, body);
+    Solver solver;
+    solver.set_body(&body);
+    solver.step(g, 1.0 / 60);  // builds the arrays
+    const double bytes = heap_bytes() - before;
+    const int n = 10;
+    const auto t0 = Clock::now();
+    for (int i = 0; i < n; ++i) solver.step(g, 1.0 / 60);
+    const double ms = 1000 * seconds_since(t0) / n;
+    const double nv = double(g.mesh().number_of_vertices());
+    say("   V = %6.0f: %.2f ms a step (%.3f us a vertex), %.0f bytes a vertex\n", nv, ms, 1000 * ms / nv, bytes / nv);
+    scaling.push_back(Json().number("vertices", nv).number("ms_per_step", ms).number("us_per_vertex", 1000 * ms / nv)
+                          .number("bytes_per_vertex", bytes / nv).str());
+  }
+
+  if (json) {
+    Json out;
+    out.number("threads", double(std::thread::hardware_concurrency()));
+    out.field("paper", kPaperTable);
+    out.field("tool_rates", array(table));
+    out.field("versus_bullet", array(versus));
+    out.field("haptics", Json().number("vertices", haptic_vertices).number("loop_hz", h.rate_hz)
+                             .number("jitter_us", h.period_jitter_us).number("force_median_us", h.force_median_us)
+                             .number("force_p99_us", h.force_p99_us).number("ticks", double(h.ticks))
+                             .number("simulation_ms_per_step", sim_ms).str());
+    out.field("scaling", array(scaling));
+    std::printf("%s\n", out.str().c_str());
+  }
+  return 0;
+}
+
+}  // namespace kiji::cli

@@ -4,6 +4,7 @@
 #   scripts/setup_python.sh --venv   only create .venv and install its requirements
 #   scripts/setup_python.sh          also build and install the kiji package into .venv
 # pip builds in build/, the same tree as the C++ build, so a second run rebuilds only what changed.
+# (A plain `pip install .` builds in build-python/ instead.)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -20,7 +21,8 @@ if ! "$venv/bin/python" -c "import numpy, pytest, pybind11, scikit_build_core" 2
 fi
 [ "${1:-}" = "--venv" ] && exit 0
 
-echo "kiji setup: pip install . (build dir build/)"
-# No build isolation: the venv's pybind11 and numpy, the same paths every time, so nothing is
-# reconfigured or rebuilt for nothing.
-"$venv/bin/python" -m pip install -q --no-build-isolation --no-deps .
+echo "kiji setup: pip install . (in build/, the C++ build's tree)"
+# The C++ build's tree, which setup.sh configured with this venv's Python and pybind11, so libkiji and
+# the tools are compiled once. No build isolation: the venv's pybind11 and numpy, at the same paths
+# every time, so nothing is reconfigured or rebuilt for nothing.
+"$venv/bin/python" -m pip install -q --no-build-isolation --no-deps -C build-dir=build .

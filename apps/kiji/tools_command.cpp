@@ -5,27 +5,9 @@
 
 #include <cstdio>
 #include <sstream>
-#include <variant>
 
 namespace kiji::cli {
 
-namespace {
-
-std::string value_text(const ParamValue& v) {
-  std::ostringstream o;
-  std::visit(
-      [&](const auto& x) {
-        using T = std::decay_t<decltype(x)>;
-        if constexpr (std::is_same_v<T, Vec3>) o << "(" << x.x() << ", " << x.y() << ", " << x.z() << ")";
-        else if constexpr (std::is_same_v<T, bool>) o << (x ? "true" : "false");
-        else if constexpr (std::is_same_v<T, std::string>) o << "'" << x << "'";
-        else o << x;
-      },
-      v);
-  return o.str();
-}
-
-}  // namespace
 
 int tools_command(const std::vector<std::string>& argv) {
   const Args args(argv, {"--path"}, {"--help", "-h"});
@@ -50,7 +32,7 @@ int tools_command(const std::vector<std::string>& argv) {
     std::printf("\n%s — %s\n  %s\n  from %s\n", id.c_str(), info.label.c_str(), info.description.c_str(),
                 registry.origin(id).c_str());
     for (const auto& p : info.parameters) {
-      std::printf("  %-16s %-6s default %s", p.name.c_str(), param_type_name(p.type), value_text(p.default_value).c_str());
+      std::printf("  %-16s %-6s default %s", p.name.c_str(), param_type_name(p.type), param_value_text(p.default_value).c_str());
       if ((p.type == ParamType::Float || p.type == ParamType::Int) && p.min != p.max)
         std::printf(", %g to %g", p.min, p.max);
       if (!p.unit.empty()) std::printf(" %s", p.unit.c_str());

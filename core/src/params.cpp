@@ -41,7 +41,9 @@ ParamSpec base(std::string name, ParamType type, ParamValue value, std::string l
   return s;
 }
 
-std::string value_text(const ParamValue& v) {
+}  // namespace
+
+std::string param_value_text(const ParamValue& v) {
   std::ostringstream o;
   std::visit(
       [&](const auto& x) {
@@ -55,6 +57,8 @@ std::string value_text(const ParamValue& v) {
   return o.str();
 }
 
+namespace {
+std::string value_text(const ParamValue& v) { return param_value_text(v); }  // short, for messages
 }  // namespace
 
 ParamSpec ParamSpec::boolean(std::string name, bool value, std::string label, std::string help) {

@@ -259,31 +259,6 @@ void require_vertex(const Garment& g, Vertex v, const char* role) {
                      " is not a vertex of garment '" + g.name + "'");
 }
 
-// Reverses the winding of every face of the piece containing face `seed`.
-void flip_piece(Soup& s, Index seed) {
-  std::unordered_map<std::uint64_t, std::vector<Index>> by_edge;
-  for (Index f = 0; f < s.faces.size(); ++f)
-    for (int k = 0; k < 3; ++k) by_edge[edge_key(s.faces[f][k], s.faces[f][(k + 1) % 3])].push_back(f);
-  std::vector<char> seen(s.faces.size(), 0);
-  std::vector<Index> stack{seed};
-  seen[seed] = 1;
-  while (!stack.empty()) {
-    const Index f = stack.back();
-    stack.pop_back();
-    for (int k = 0; k < 3; ++k)
-      for (Index n : by_edge[edge_key(s.faces[f][k], s.faces[f][(k + 1) % 3])])
-        if (!seen[n]) {
-          seen[n] = 1;
-          stack.push_back(n);
-        }
-  }
-  for (Index f = 0; f < s.faces.size(); ++f)
-    if (seen[f]) {
-      std::swap(s.faces[f][1], s.faces[f][2]);
-      std::swap(s.uvs[f][1], s.uvs[f][2]);
-    }
-}
-
 // Faces of the piece containing face `seed` (by shared edges).
 std::vector<char> piece_of(const Soup& s, Index seed) {
   std::unordered_map<std::uint64_t, std::vector<Index>> by_edge;
@@ -303,6 +278,16 @@ std::vector<char> piece_of(const Soup& s, Index seed) {
         }
   }
   return seen;
+}
+
+// Reverses the winding of every face of the piece containing face `seed`.
+void flip_piece(Soup& s, Index seed) {
+  const std::vector<char> in_piece = piece_of(s, seed);
+  for (Index f = 0; f < s.faces.size(); ++f)
+    if (in_piece[f]) {
+      std::swap(s.faces[f][1], s.faces[f][2]);
+      std::swap(s.uvs[f][1], s.uvs[f][2]);
+    }
 }
 
 // Replaces vertex `gone` by `keep` in every face (dropping faces that then repeat a vertex) and in

@@ -18,6 +18,9 @@ const char* param_type_name(ParamType type);
 // Color -> Vec3 (linear RGB, each in [0,1]).
 using ParamValue = std::variant<bool, long long, double, std::string, Vec3>;
 
+// A value as a user would type it: true, 3, 0.5, 'cotton', (0.1, 0.2, 0.8).
+std::string param_value_text(const ParamValue& value);
+
 struct ParamSpec {
   std::string name;                  // a Python identifier: the keyword argument's name
   ParamType type = ParamType::Float;

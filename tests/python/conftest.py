@@ -55,5 +55,5 @@ def probe_dir():
     """The probe tool of tests/plugins, built by the C++ build (a third-party plugin for the package)."""
     d = os.environ.get("KIJI_TEST_PROBE_DIR", os.path.join(REPO, "build", "tests", "plugins", "good"))
     if not os.path.isfile(os.path.join(d, "kiji_probe.json")):
-        pytest.skip(f"the probe tool is not built in {d}: build the C++ tests first (scripts/setup.sh)")
+        pytest.fail(f"the probe tool is not built in {d}: build the C++ tests first (scripts/setup.sh)")
     return d

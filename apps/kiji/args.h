@@ -58,6 +58,12 @@ class Args {
       throw UsageError("option " + name + " expects a number, not '" + it->second + "'");
     }
   }
+  int integer(const std::string& name, int fallback) const {
+    const double v = number(name, fallback);
+    if (v != static_cast<double>(static_cast<long long>(v)) || v < -2147483648.0 || v > 2147483647.0)
+      throw UsageError("option " + name + " expects a whole number, not '" + get(name, "") + "'");
+    return static_cast<int>(v);
+  }
 
  private:
   std::map<std::string, std::string> values_;

@@ -34,6 +34,7 @@ const char* kDrapeHelp =
     "  --material NAME          cotton, silk, denim, rubber or tissue (default cotton)\n"
     "  --model xpbd|mass_spring the solver model (default xpbd; mass_spring is the 2006 paper's)\n"
     "  --seconds S              simulated time (default 3)\n"
+    "  --substeps N             solver substeps per 1/60 s step (default 40)\n"
     "  --out FILE               garment file, .glb or .obj (default out/drape.glb)\n"
     "  --picture FILE           a PNG of the result (default: the --out path with .png)\n"
     "  --no-picture             do not write a picture\n"
@@ -79,7 +80,7 @@ void make_parent(const std::string& path) {
 
 int drape_command(const std::vector<std::string>& argv) {
   const Args args(argv,
-                  {"--body", "--up", "--scale", "--height", "--garment", "--material", "--model", "--seconds",
+                  {"--body", "--up", "--scale", "--height", "--garment", "--material", "--model", "--seconds", "--substeps",
                    "--out", "--picture"},
                   {"--json", "--no-picture", "--help", "-h"});
   if (args.has("--help") || args.has("-h")) {
@@ -96,6 +97,7 @@ int drape_command(const std::vector<std::string>& argv) {
   DrapeOptions options;
   options.seconds = args.number("--seconds", 3.0);
   options.solver.model = parse_solver_model(args.get("--model", "xpbd"));
+  if (args.has("--substeps")) options.solver.substeps = args.integer("--substeps", 40);
   options.validate();
   const std::string out = args.get("--out", "out/drape.glb");
   const std::string ext = std::filesystem::path(out).extension().string();
@@ -131,7 +133,7 @@ int drape_command(const std::vector<std::string>& argv) {
       << ", \"vertices\": " << garment.mesh().number_of_vertices()
       << ", \"faces\": " << garment.mesh().number_of_faces()
       << ", \"seconds_simulated\": " << json_number(result.seconds_simulated)
-      << ", \"steps\": " << result.steps
+      << ", \"steps\": " << result.steps << ", \"substeps\": " << options.solver.substeps
       << ", \"wall_seconds\": " << json_number(result.wall_seconds)
       << ", \"ms_per_step\": " << json_number(1000.0 * result.wall_seconds / std::max<std::size_t>(1, result.steps))
       << ", \"max_penetration\": " << json_number(m.max_penetration)

@@ -26,34 +26,41 @@ namespace kiji::solver_detail {
 
 namespace {
 
-// Projects every edge beyond (1 +- limit) x rest back to the limit; a few passes over the edges
-// found beyond it, since fixing one can push a neighbour past it.
+// Projects every edge beyond (1 +- limit) x rest back to the limit (Provot 1995): Gauss-Seidel
+// passes over the edges found beyond it. Fixing one edge can push a neighbour past the limit, so
+// the edges are looked for again, a few rounds at most; each round costs one scan of the edges and
+// the passes touch only the offending ones. One round of four passes left fold and crown edges at
+// 9-14 % on a 10,000-vertex drape; four rounds of two bring them to 6-7 %.
 void limit_strain(SolverArrays& s, double limit) {
+  constexpr int kRounds = 4, kPasses = 2;
   Vec3* X = s.x.data();
   const double* W = s.w.data();
   const int ne = static_cast<int>(s.e_i.size());
-  s.over.clear();
   const double hi = 1 + limit, lo = 1 - limit;
-  for (int k = 0; k < ne; ++k) {
-    const double r = s.e_rest[k];
-    const double l2 = (X[s.e_i[k]] - X[s.e_j[k]]).squaredNorm();
-    if (l2 > hi * hi * r * r || l2 < lo * lo * r * r) s.over.push_back(k);
-  }
-  for (int pass = 0; pass < 4 && !s.over.empty(); ++pass) {
-    for (int k : s.over) {
-      const int i = s.e_i[k], j = s.e_j[k];
-      const double wi = W[i], wj = W[j];
-      const double wsum = wi + wj;
-      if (wsum == 0) continue;
-      const Vec3 d = X[i] - X[j];
-      const double len = d.norm();
-      if (!(len > 1e-12)) continue;
+  for (int round = 0; round < kRounds; ++round) {
+    s.over.clear();
+    for (int k = 0; k < ne; ++k) {
       const double r = s.e_rest[k];
-      const double target = std::clamp(len, lo * r, hi * r);
-      if (target == len) continue;
-      const Vec3 corr = d * ((target - len) / (len * wsum));
-      X[i] += wi * corr;
-      X[j] -= wj * corr;
+      const double l2 = (X[s.e_i[k]] - X[s.e_j[k]]).squaredNorm();
+      if (l2 > hi * hi * r * r || l2 < lo * lo * r * r) s.over.push_back(k);
+    }
+    if (s.over.empty()) return;
+    for (int pass = 0; pass < kPasses; ++pass) {
+      for (int k : s.over) {
+        const int i = s.e_i[k], j = s.e_j[k];
+        const double wi = W[i], wj = W[j];
+        const double wsum = wi + wj;
+        if (wsum == 0) continue;
+        const Vec3 d = X[i] - X[j];
+        const double len = d.norm();
+        if (!(len > 1e-12)) continue;
+        const double r = s.e_rest[k];
+        const double target = std::clamp(len, lo * r, hi * r);
+        if (target == len) continue;
+        const Vec3 corr = d * ((target - len) / (len * wsum));
+        X[i] += wi * corr;
+        X[j] -= wj * corr;
+      }
     }
   }
 }
@@ -147,14 +154,7 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
         }
       }
     }
-    // Hands (zero-length springs to a point, compliance 1 / k) and tacks (zero-length, as stiff as
-    // the cloth), after the cloth's own constraints so that they win ties.
-    for (const auto& a : s.attach) {
-      const int i = a.i;
-      if (W[i] == 0) continue;
-      const double alpha = 1.0 / (a.k * h * h);
-      X[i] += (a.target - X[i]) * (W[i] / (W[i] + alpha));
-    }
+    // Tacks: zero-length, as stiff as the cloth.
     for (const auto& t : s.tacks) {
       const int i = t[0], j = t[1];
       const double wsum = W[i] + W[j];
@@ -164,8 +164,21 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
       X[i] += W[i] * corr;
       X[j] -= W[j] * corr;
     }
-    if (p.strain_limit > 0) limit_strain(s, p.strain_limit);
+    // Self-collision, then the strain limit (a self-collision push of up to half the thickness
+    // stretches the edges of a fold by as much: the limit takes it back, and what it leaves is
+    // resolved in the next substep), then the hands, then the body last, so nothing ends a
+    // substep inside it.
     if (!s.self_pairs.empty()) resolve_self(s, th);
+    if (p.strain_limit > 0) limit_strain(s, p.strain_limit);
+    // Hands (zero-length springs to a point, compliance 1 / k), after the cloth's own constraints
+    // and the strain limit so that they win ties: a hand can stretch the cloth past the limit, and
+    // so tear it.
+    for (const auto& a : s.attach) {
+      const int i = a.i;
+      if (W[i] == 0) continue;
+      const double alpha = 1.0 / (a.k * h * h);
+      X[i] += (a.target - X[i]) * (W[i] / (W[i] + alpha));
+    }
     for (int i : s.contact_verts) resolve_body(s, i, th, m.friction);
     const double inv_h = 1.0 / h;
     for (std::size_t i = 0; i < n; ++i)

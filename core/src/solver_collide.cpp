@@ -8,6 +8,7 @@
 //    every step and intersected with each other, give vertex-triangle pairs; pairs that cannot come
 //    within the thickness during the step are dropped, and each keeps the side it started on.
 #include "geometry.h"
+#include "parallel.h"
 #include "solver_state.h"
 
 #include <algorithm>
@@ -18,12 +19,15 @@ namespace kiji::solver_detail {
 namespace {
 constexpr int kCluster = 8;
 
-// The box swept by vertex i over the step's predicted motion, grown by `pad` plus `slack` times
-// the motion (room for constraint corrections the prediction does not know).
+// The box swept by vertex i over the step's predicted motion, grown by `pad`, plus `slack` times
+// the motion (room for constraint corrections the prediction does not know), plus how far the
+// vertex ended from its prediction in the last step (a hand, a seam closing or the strain limit
+// can carry a vertex further than its own motion would: without this it could pass a body
+// triangle that is not among its candidates, and stay inside).
 Box3 swept_box(const SolverArrays& s, int i, double pad, double slack = 0.5) {
   const Vec3& a = s.x[i];
   const Vec3 b = a + s.pred[i];
-  const double e = pad + slack * s.pred[i].norm();
+  const double e = pad + slack * s.pred[i].norm() + (s.surprise.empty() ? 0.0 : s.surprise[i]);
   return Box3(a.cwiseMin(b) - Vec3::Constant(e), a.cwiseMax(b) + Vec3::Constant(e));
 }
 
@@ -63,42 +67,69 @@ void set_body(SolverArrays& s, const Body* body) {
 }
 
 void gather_body_candidates(SolverArrays& s, const BodyCollider& collider, double thickness) {
-  s.cand.clear();
-  s.contact_verts.clear();
   std::fill(s.cand_count.begin(), s.cand_count.end(), 0);
   const double pad = 1.5 * thickness;
   const int nv = static_cast<int>(s.order.size());
-  for (int c0 = 0; c0 < nv; c0 += kCluster) {
-    const int c1 = std::min(nv, c0 + kCluster);
-    Box3 cb;
-    for (int k = c0; k < c1; ++k) {
-      const int i = s.order[k];
-      if (s.moving[i]) cb.extend(swept_box(s, i, pad));
+  s.box.resize(s.n);
+  parallel::for_range(static_cast<int>(s.n), 2048, [&](int b, int e) {
+    for (int i = b; i < e; ++i)
+      if (s.moving[i]) s.box[i] = swept_box(s, i, pad);
+  });
+  const int clusters = (nv + kCluster - 1) / kCluster;
+  // The clusters in a few contiguous pieces, each gathered on its own (in parallel) into its own
+  // lists, then joined in order: the same lists as one serial pass.
+  const int pieces = std::max(1, std::min(clusters / 16, 4 * parallel::thread_count()));
+  s.gather.resize(pieces);
+  parallel::for_range(pieces, 1, [&](int p0, int p1) {
+    for (int piece = p0; piece < p1; ++piece) {
+      SolverArrays::Gather& out = s.gather[piece];
+      out.cand.clear();
+      out.verts.clear();
+      const int first = static_cast<int>(std::int64_t(clusters) * piece / pieces);
+      const int last = static_cast<int>(std::int64_t(clusters) * (piece + 1) / pieces);
+      for (int cl = first; cl < last; ++cl) {
+        const int c0 = cl * kCluster, c1 = std::min(nv, c0 + kCluster);
+        Box3 cb;
+        for (int k = c0; k < c1; ++k) {
+          const int i = s.order[k];
+          if (s.moving[i]) cb.extend(s.box[i]);
+        }
+        if (cb.isEmpty() || !cb.intersects(s.body_bounds)) continue;
+        collider.triangles_in_box(cb, out.scratch);
+        if (out.scratch.empty()) continue;
+        for (int k = c0; k < c1; ++k) {
+          const int i = s.order[k];
+          if (!s.moving[i]) continue;
+          const Box3& vb = s.box[i];
+          s.cand_start[i] = static_cast<int>(out.cand.size());  // within the piece, shifted below
+          for (int t : out.scratch)
+            if (s.body_boxes[t].intersects(vb)) out.cand.push_back(t);
+          s.cand_count[i] = static_cast<int>(out.cand.size()) - s.cand_start[i];
+          if (s.cand_count[i] > 0) out.verts.push_back(i);
+        }
+      }
     }
-    if (cb.isEmpty() || !cb.intersects(s.body_bounds)) continue;
-    collider.triangles_in_box(cb, s.scratch);
-    if (s.scratch.empty()) continue;
-    for (int k = c0; k < c1; ++k) {
-      const int i = s.order[k];
-      if (!s.moving[i]) continue;
-      const Box3 vb = swept_box(s, i, pad);
-      s.cand_start[i] = static_cast<int>(s.cand.size());
-      for (int t : s.scratch)
-        if (s.body_boxes[t].intersects(vb)) s.cand.push_back(t);
-      s.cand_count[i] = static_cast<int>(s.cand.size()) - s.cand_start[i];
-      if (s.cand_count[i] > 0) s.contact_verts.push_back(i);
-    }
+  });
+  s.cand.clear();
+  s.contact_verts.clear();
+  for (const SolverArrays::Gather& out : s.gather) {
+    const int shift = static_cast<int>(s.cand.size());
+    for (int i : out.verts) s.cand_start[i] += shift;
+    s.cand.insert(s.cand.end(), out.cand.begin(), out.cand.end());
+    s.contact_verts.insert(s.contact_verts.end(), out.verts.begin(), out.verts.end());
   }
   s.last_body_candidates = s.cand.size();
 }
 
 void resolve_body(SolverArrays& s, int i, double th, double mu) {
+  resolve_body_against(s, i, th, mu, s.cand.data() + s.cand_start[i], s.cand_count[i]);
+}
+
+void resolve_body_against(SolverArrays& s, int i, double th, double mu, const int* c, int cnt) {
   Vec3 x = s.x[i];
   const Vec3 xp = s.xp[i];
   double push = 0;
   Vec3 nrm = Vec3::Zero();
-  const int* c = s.cand.data() + s.cand_start[i];
-  const int cnt = s.cand_count[i];
   for (int k = 0; k < cnt; ++k) {
     const SolverArrays::BodyTri& T = s.body_tris[c[k]];
     const double dn = (x - T.a).dot(T.n);
@@ -137,6 +168,26 @@ void resolve_body(SolverArrays& s, int i, double th, double mu) {
   s.x[i] = x;
 }
 
+void resolve_escaped(SolverArrays& s, const BodyCollider& collider, double th, double mu) {
+  if (s.box.size() != s.n) return;
+  const int n = static_cast<int>(s.n);
+  s.escaped.assign(s.n, 0);
+  parallel::for_range(n, 4096, [&](int b, int e) {
+    for (int i = b; i < e; ++i)
+      if (s.moving[i] && !s.box[i].contains(s.x[i])) s.escaped[i] = 1;
+  });
+  std::vector<int> tris;
+  for (int i = 0; i < n; ++i) {
+    if (!s.escaped[i]) continue;
+    Box3 b(s.xp[i].cwiseMin(s.x[i]), s.xp[i].cwiseMax(s.x[i]));
+    b.min() -= Vec3::Constant(1.5 * th);
+    b.max() += Vec3::Constant(1.5 * th);
+    if (!b.intersects(s.body_bounds)) continue;
+    collider.triangles_in_box(b, tris);
+    if (!tris.empty()) resolve_body_against(s, i, th, mu, tris.data(), static_cast<int>(tris.size()));
+  }
+}
+
 namespace {
 struct PairCollector : btDbvt::ICollide {
   SolverArrays* s;
@@ -171,17 +222,21 @@ struct PairCollector : btDbvt::ICollide {
 void gather_self_pairs(SolverArrays& s, double thickness) {
   s.self_pairs.clear();
   if (!s.tri_tree.m_root || !s.vert_tree.m_root) return;
-  for (std::size_t t = 0; t < s.tris.size(); ++t) {
-    Box3 b;
-    for (int k = 0; k < 3; ++k) {
-      const int u = s.tris[t][k];
-      b.extend(s.x[u]);
-      b.extend(Vec3(s.x[u] + s.pred[u]));
+  parallel::for_range(static_cast<int>(s.tris.size()), 2048, [&](int b0, int e0) {
+    for (int t = b0; t < e0; ++t) {
+      Box3 b;
+      for (int k = 0; k < 3; ++k) {
+        const int u = s.tris[t][k];
+        b.extend(s.x[u]);
+        b.extend(Vec3(s.x[u] + s.pred[u]));
+      }
+      s.tri_leaf[t]->volume = to_bt(b);
     }
-    s.tri_leaf[t]->volume = to_bt(b);
-  }
-  for (std::size_t i = 0; i < s.vert_leaf.size(); ++i)
-    if (s.vert_leaf[i]) s.vert_leaf[i]->volume = to_bt(swept_box(s, static_cast<int>(i), thickness, 0.1));
+  });
+  parallel::for_range(static_cast<int>(s.vert_leaf.size()), 2048, [&](int b0, int e0) {
+    for (int i = b0; i < e0; ++i)
+      if (s.vert_leaf[i]) s.vert_leaf[i]->volume = to_bt(swept_box(s, i, thickness, 0.1));
+  });
   refit(s.tri_tree.m_root);
   refit(s.vert_tree.m_root);
   PairCollector pc;

@@ -29,6 +29,7 @@ struct SolverArrays {
   std::vector<int> order;             // alive vertices in spatial (Morton) order at the last rebuild
   std::vector<Vec3> x, xp, x0, v, fext, pred;
   std::vector<double> w;              // inverse mass used by the model (0 = fixed)
+  std::vector<double> surprise;       // |end of the last step - its predicted end| (collision margin)
 
   // ---- stretch: one distance constraint per edge, sorted by colour ----
   std::vector<int> e_i, e_j;
@@ -81,7 +82,12 @@ struct SolverArrays {
   Box3 body_bounds;
   std::vector<int> cand_start, cand_count, cand;  // per vertex: candidate body triangles
   std::vector<int> contact_verts;                 // vertices with at least one candidate
-  std::vector<int> scratch;
+  std::vector<Box3> box;                          // per vertex: the box its candidates cover
+  std::vector<unsigned char> escaped;             // left its box during a substep
+  struct Gather {                                 // one piece of the parallel gathering
+    std::vector<int> cand, verts, scratch;
+  };
+  std::vector<Gather> gather;
 
   // ---- self collision (btDbvt of cloth triangles and of vertices, refitted every step) ----
   btDbvt tri_tree, vert_tree;
@@ -106,6 +112,11 @@ void set_body(SolverArrays& s, const Body* body);
 void gather_body_candidates(SolverArrays& s, const BodyCollider& collider, double thickness);
 // Pushes vertex i out of the body to `thickness`, on the side it came from (xp), with friction.
 void resolve_body(SolverArrays& s, int i, double thickness, double friction);
+void resolve_body_against(SolverArrays& s, int i, double thickness, double friction, const int* tris, int count);
+// Vertices that constraint corrections carried out of the box their candidates were gathered for
+// (a seam closing, the strain limit, a hand): resolved against the body triangles along their
+// actual motion in this substep, so they cannot pass through a triangle that was not a candidate.
+void resolve_escaped(SolverArrays& s, const BodyCollider& collider, double thickness, double friction);
 void gather_self_pairs(SolverArrays& s, double thickness);
 void resolve_self(SolverArrays& s, double thickness);
 }  // namespace solver_detail

@@ -1,0 +1,36 @@
+// A small pool of worker threads for the solver's data-parallel loops, private to libkiji.
+//
+// for_range(n, grain, fn) calls fn(begin, end) on disjoint chunks covering [0, n), on the pool's
+// workers and on the calling thread, and returns when every chunk is done. The loops it runs are
+// the ones whose iterations write disjoint data (constraints of one colour, one vertex each), so
+// the result is the same, bit for bit, whatever the number of threads.
+//
+// Workers spin briefly between calls (a substep issues a few dozen back to back) and then sleep,
+// so an idle solver costs no CPU. One parallel loop runs at a time in the process: a second
+// caller (another garment's solver on another thread) runs its loop serially instead of waiting.
+// KIJI_THREADS=N in the environment sets the number of threads (1 = serial); the default is the
+// number of hardware threads, at most 8.
+#pragma once
+
+#include <cstddef>
+#include <type_traits>
+
+namespace kiji::parallel {
+
+using RangeFn = void (*)(void* context, int begin, int end);
+
+int thread_count();
+void for_range(int n, int grain, void* context, RangeFn fn);
+
+template <typename F>
+void for_range(int n, int grain, F&& f) {
+  if (n <= 0) return;
+  if (n <= grain || thread_count() <= 1) {
+    f(0, n);
+    return;
+  }
+  for_range(n, grain, static_cast<void*>(&f),
+            [](void* c, int b, int e) { (*static_cast<std::remove_reference_t<F>*>(c))(b, e); });
+}
+
+}  // namespace kiji::parallel

@@ -171,10 +171,9 @@ void resolve_body_against(SolverArrays& s, int i, double th, double mu, const in
 void resolve_escaped(SolverArrays& s, const BodyCollider& collider, double th, double mu) {
   if (s.box.size() != s.n) return;
   const int n = static_cast<int>(s.n);
-  s.escaped.assign(s.n, 0);
+  s.escaped.resize(s.n);
   parallel::for_range(n, 4096, [&](int b, int e) {
-    for (int i = b; i < e; ++i)
-      if (s.moving[i] && !s.box[i].contains(s.x[i])) s.escaped[i] = 1;
+    for (int i = b; i < e; ++i) s.escaped[i] = s.moving[i] && !s.box[i].contains(s.x[i]);
   });
   std::vector<int> tris;
   for (int i = 0; i < n; ++i) {

@@ -95,8 +95,13 @@ struct SolverArrays {
   struct SelfPair {
     int v, t;
     double side;  // +1 / -1: the side of the triangle the vertex was on at the start of the step
+    double d0;    // their distance at the start of the step
   };
   std::vector<SelfPair> self_pairs;
+  std::vector<std::vector<SelfPair>> self_gather;
+  // Per vertex, for skipping far pairs: the length of its path this step up to the last substep,
+  // and up to now (path + this substep's motion + the self-collision pushes it has had).
+  std::vector<double> path, reach;  // one list per vertex subtree, joined in order
 
   // ---- diagnostics of the last step ----
   std::size_t last_body_candidates = 0;

@@ -112,6 +112,8 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
     gather_self_pairs(s, th);
   else
     s.self_pairs.clear();
+  s.path.assign(n, 0.0);
+  s.reach.assign(n, 0.0);
 
   const double damp = std::exp(-m.damping * h);
   const double alpha_s = 1.0 / (m.stretch_stiffness * h * h);
@@ -205,7 +207,12 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
     // stretches the edges of a fold by as much: the limit takes it back, and what it leaves is
     // resolved in the next substep), then the hands, then the body last, so nothing ends a
     // substep inside it.
-    if (!s.self_pairs.empty()) resolve_self(s, th);
+    if (!s.self_pairs.empty()) {
+      parallel::for_range(static_cast<int>(n), kVertexGrain, [&](int b, int e) {
+        for (int i = b; i < e; ++i) s.reach[i] = s.moving[i] ? s.path[i] + (X[i] - s.xp[i]).norm() : 0.0;
+      });
+      resolve_self(s, th);
+    }
     if (p.strain_limit > 0) limit_strain(s, p.strain_limit);
     // Hands (zero-length springs to a point, compliance 1 / k), after the cloth's own constraints
     // and the strain limit so that they win ties: a hand can stretch the cloth past the limit, and
@@ -226,6 +233,11 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
       for (int i = b; i < e; ++i)
         if (s.moving[i]) s.v[i] = (X[i] - s.xp[i]) * inv_h;
     });
+    if (!s.self_pairs.empty())
+      parallel::for_range(static_cast<int>(n), kVertexGrain, [&](int b, int e) {
+        for (int i = b; i < e; ++i)
+          if (s.moving[i]) s.path[i] += (X[i] - s.xp[i]).norm();
+      });
   }
   parallel::for_range(static_cast<int>(n), kVertexGrain, [&](int b, int e) {
     for (int i = b; i < e; ++i) s.surprise[i] = s.moving[i] ? (X[i] - s.x0[i] - s.pred[i]).norm() : 0.0;

@@ -220,13 +220,24 @@ void build_long_range(SolverArrays& s) {
     for (std::size_t k = before; k < li.size(); ++k) idx.push_back(k);
     levels.push_back(idx);
   }
-  // Coarse to fine.
-  for (auto it = levels.rbegin(); it != levels.rend(); ++it)
-    for (std::size_t k : *it) {
-      s.l_i.push_back(li[k][0]);
-      s.l_j.push_back(li[k][1]);
-      s.l_rest.push_back(lr[k]);
+  // Coarse to fine, each level coloured (its groups solved one after the other, each in parallel).
+  s.l_groups.assign(1, 0);
+  s.l_serial.clear();
+  std::vector<int> perm, offsets;
+  for (auto it = levels.rbegin(); it != levels.rend(); ++it) {
+    const std::vector<std::size_t>& level = *it;
+    colour<2>(level.size(), n, [&](std::size_t c) { return li[level[c]]; }, perm, offsets);
+    for (std::size_t c = 0; c + 1 < offsets.size(); ++c) {
+      for (int q = offsets[c]; q < offsets[c + 1]; ++q) {
+        const std::size_t k = level[perm[q]];
+        s.l_i.push_back(li[k][0]);
+        s.l_j.push_back(li[k][1]);
+        s.l_rest.push_back(lr[k]);
+      }
+      s.l_groups.push_back(static_cast<int>(s.l_i.size()));
+      s.l_serial.push_back(c == 63);  // the colouring's overflow group may share vertices
     }
+  }
 }
 
 double heron(double a, double b, double c) {

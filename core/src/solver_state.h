@@ -44,6 +44,8 @@ struct SolverArrays {
   // sweep, as the coarse levels of hierarchical PBD (Mueller 2008) do.
   std::vector<int> l_i, l_j;
   std::vector<double> l_rest;
+  std::vector<int> l_groups;               // offsets of groups sharing no vertex, coarse to fine
+  std::vector<unsigned char> l_serial;     // per group: may share vertices (solved serially)
 
   // ---- bending: isometric (quadratic) bending per interior edge, sorted by colour ----
   struct Bend {
@@ -65,6 +67,7 @@ struct SolverArrays {
   std::vector<Attach> attach;
   std::vector<std::array<int, 2>> tacks;
   std::vector<int> over;  // edges beyond the strain limit this substep
+  std::vector<std::vector<int>> over_pieces;
 
   // ---- faces and adjacency ----
   std::vector<std::array<int, 3>> tris;

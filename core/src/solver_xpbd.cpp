@@ -21,6 +21,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 
 namespace kiji::solver_detail {
@@ -39,12 +40,24 @@ void limit_strain(SolverArrays& s, double limit) {
   const int ne = static_cast<int>(s.e_i.size());
   const double hi = 1 + limit, lo = 1 - limit;
   for (int round = 0; round < kRounds; ++round) {
+    // The scan in contiguous pieces (in parallel), each into its own list, joined in order.
+    const int pieces = std::max(1, std::min(16, ne / 4096));
+    s.over_pieces.resize(pieces);
+    parallel::for_range(pieces, 1, [&](int p0, int p1) {
+      for (int piece = p0; piece < p1; ++piece) {
+        std::vector<int>& out = s.over_pieces[piece];
+        out.clear();
+        const int k0 = static_cast<int>(std::int64_t(ne) * piece / pieces);
+        const int k1 = static_cast<int>(std::int64_t(ne) * (piece + 1) / pieces);
+        for (int k = k0; k < k1; ++k) {
+          const double r = s.e_rest[k];
+          const double l2 = (X[s.e_i[k]] - X[s.e_j[k]]).squaredNorm();
+          if (l2 > hi * hi * r * r || l2 < lo * lo * r * r) out.push_back(k);
+        }
+      }
+    });
     s.over.clear();
-    for (int k = 0; k < ne; ++k) {
-      const double r = s.e_rest[k];
-      const double l2 = (X[s.e_i[k]] - X[s.e_j[k]]).squaredNorm();
-      if (l2 > hi * hi * r * r || l2 < lo * lo * r * r) s.over.push_back(k);
-    }
+    for (const std::vector<int>& out : s.over_pieces) s.over.insert(s.over.end(), out.begin(), out.end());
     if (s.over.empty()) return;
     for (int pass = 0; pass < kPasses; ++pass) {
       for (int k : s.over) {
@@ -142,18 +155,27 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
     std::fill(s.lam_e.begin(), s.lam_e.end(), 0.0);
     if (bending) std::fill(s.lam_b.begin(), s.lam_b.end(), Vec3::Zero());
     for (int it = 0; it < p.iterations; ++it) {
-      for (std::size_t k = 0; k < s.l_i.size(); ++k) {  // long-range limits, coarse to fine
-        const int i = s.l_i[k], j = s.l_j[k];
-        const double wsum = W[i] + W[j];
-        if (wsum == 0) continue;
-        const Vec3 d = X[i] - X[j];
-        const double len2 = d.squaredNorm();
-        const double rest = s.l_rest[k];
-        if (len2 <= rest * rest) continue;
-        const double len = std::sqrt(len2);
-        const Vec3 corr = d * ((rest - len) / (len * wsum));
-        X[i] += W[i] * corr;
-        X[j] -= W[j] * corr;
+      auto limits = [&](int b, int e) {  // long-range limits
+        for (int k = b; k < e; ++k) {
+          const int i = s.l_i[k], j = s.l_j[k];
+          const double wsum = W[i] + W[j];
+          if (wsum == 0) continue;
+          const Vec3 d = X[i] - X[j];
+          const double len2 = d.squaredNorm();
+          const double rest = s.l_rest[k];
+          if (len2 <= rest * rest) continue;
+          const double len = std::sqrt(len2);
+          const Vec3 corr = d * ((rest - len) / (len * wsum));
+          X[i] += W[i] * corr;
+          X[j] -= W[j] * corr;
+        }
+      };
+      for (std::size_t c = 0; c + 1 < s.l_groups.size(); ++c) {  // coarse to fine
+        const int b = s.l_groups[c], e = s.l_groups[c + 1];
+        if (s.l_serial[c])
+          limits(b, e);
+        else
+          parallel::for_range(e - b, kConstraintGrain, [&](int lo, int hi) { limits(b + lo, b + hi); });
       }
       auto stretch = [&](int b, int e) {
         for (int k = b; k < e; ++k) {

@@ -110,7 +110,8 @@ TEST(Cli, BenchPrintsEveryFigureAsJson) {
   for (const char* field :
        {"\"paper\":", "\"tool_rates\":", "\"vertices\": 289", "\"pinch\": {\"steps_per_second\":", "\"tear\":",
         "\"cut\":", "\"sew\":", "\"paint\":", "\"frames_per_second\":", "\"versus_bullet\":", "\"xpbd\":",
-        "\"mass_spring\":", "\"bullet\":", "\"speedup_xpbd_over_bullet\":", "\"max_strain\":", "\"sag_m\":",
+        "\"mass_spring\":", "\"bullet\":", "\"speedup_xpbd_over_bullet\":", "\"matched_substeps\":", "\"xpbd_matched\":",
+        "\"speedup_at_equal_strain\":", "\"max_strain\":", "\"sag_m\":",
         "\"haptics\":", "\"loop_hz\":", "\"jitter_us\":", "\"force_median_us\":", "\"force_p99_us\":",
         "\"scaling\":", "\"ms_per_step\":", "\"bytes_per_vertex\":"})
     EXPECT_NE(r.out.find(field), std::string::npos) << field << " missing";

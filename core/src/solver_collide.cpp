@@ -310,7 +310,7 @@ void resolve_self(SolverArrays& s, double thickness) {
     const auto& tri = s.tris[p.t];
     // The distance from a point to a triangle changes no faster than the point and the triangle's
     // corners move: a pair that started further apart than the thickness plus everything its four
-    // vertices have moved since (pushes included) cannot be within it, nor have crossed. Most pairs
+    // vertices have moved since (pushes included) cannot be within it, nor have crossed. Many pairs
     // gathered for a step with large relative motion (cloth landing, a pinch) end here.
     if (p.d0 - R[p.v] - std::max({R[tri[0]], R[tri[1]], R[tri[2]]}) > thickness) continue;
     Vec3& xv = s.x[p.v];

@@ -19,15 +19,17 @@ namespace kiji::solver_detail {
 namespace {
 constexpr int kCluster = 8;
 
-// The box swept by vertex i over the step's predicted motion, grown by `pad`, plus `slack` times
-// the motion (room for constraint corrections the prediction does not know), plus how far the
-// vertex ended from its prediction in the last step (a hand, a seam closing or the strain limit
-// can carry a vertex further than its own motion would: without this it could pass a body
-// triangle that is not among its candidates, and stay inside).
-Box3 swept_box(const SolverArrays& s, int i, double pad, double slack = 0.5) {
+// The box swept by vertex i over the step's predicted motion (less a common motion `c`, for
+// culling in a moving frame), grown by `pad`, plus `slack` times that motion (room for constraint
+// corrections the prediction does not know), plus how far the vertex ended from its prediction in
+// the last step (a hand, a seam closing or the strain limit can carry a vertex further than its
+// own motion would: without this it could pass a body triangle that is not among its candidates,
+// and stay inside).
+Box3 swept_box(const SolverArrays& s, int i, double pad, double slack, const Vec3& c = Vec3::Zero()) {
   const Vec3& a = s.x[i];
-  const Vec3 b = a + s.pred[i];
-  const double e = pad + slack * s.pred[i].norm() + (s.surprise.empty() ? 0.0 : s.surprise[i]);
+  const Vec3 m = s.pred[i] - c;
+  const Vec3 b = a + m;
+  const double e = pad + slack * m.norm() + (s.surprise.empty() ? 0.0 : s.surprise[i]);
   return Box3(a.cwiseMin(b) - Vec3::Constant(e), a.cwiseMax(b) + Vec3::Constant(e));
 }
 
@@ -73,7 +75,7 @@ void gather_body_candidates(SolverArrays& s, const BodyCollider& collider, doubl
   s.box.resize(s.n);
   parallel::for_range(static_cast<int>(s.n), 2048, [&](int b, int e) {
     for (int i = b; i < e; ++i)
-      if (s.moving[i]) s.box[i] = swept_box(s, i, pad);
+      if (s.moving[i]) s.box[i] = swept_box(s, i, pad, 0.5);
   });
   const int clusters = (nv + kCluster - 1) / kCluster;
   // The clusters in a few contiguous pieces, each gathered on its own (in parallel) into its own
@@ -224,13 +226,6 @@ struct PairCollector : btDbvt::ICollide {
   }
 };
 
-// The box vertex i sweeps over the step relative to the common motion `c`, grown by `pad`.
-Box3 relative_box(const SolverArrays& s, int i, const Vec3& c, double pad) {
-  const Vec3& a = s.x[i];
-  const Vec3 m = s.pred[i] - c;
-  const Vec3 b = a + m;
-  return Box3(a.cwiseMin(b) - Vec3::Constant(pad), a.cwiseMax(b) + Vec3::Constant(pad));
-}
 }  // namespace
 
 // Vertex-triangle pairs that can come within the thickness during the step.
@@ -264,9 +259,7 @@ void gather_self_pairs(SolverArrays& s, double thickness) {
   });
   parallel::for_range(static_cast<int>(s.vert_leaf.size()), 2048, [&](int b0, int e0) {
     for (int i = b0; i < e0; ++i) {
-      if (!s.vert_leaf[i]) continue;
-      const double slack = 0.1 * (s.pred[i] - c).norm() + (s.surprise.empty() ? 0.0 : s.surprise[i]);
-      s.vert_leaf[i]->volume = to_bt(relative_box(s, i, c, thickness + slack));
+      if (s.vert_leaf[i]) s.vert_leaf[i]->volume = to_bt(swept_box(s, i, thickness, 0.1, c));
     }
   });
   refit(s.tri_tree.m_root);

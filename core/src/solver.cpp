@@ -4,6 +4,7 @@
 #include "kiji/solver.h"
 
 #include "kiji/error.h"
+#include "parallel.h"
 #include "solver_state.h"
 
 #include <algorithm>
@@ -148,11 +149,9 @@ void build_long_range(SolverArrays& s) {
   s.l_rest.clear();
   const std::size_t n = s.n;
   std::vector<int> hop(n, -1), mark(n, 0);
-  std::vector<double> dist(n, std::numeric_limits<double>::infinity());
   std::vector<char> anchor(n, 0);
   std::vector<int> touched, queue;
   using QE = std::pair<double, int>;
-  std::priority_queue<QE, std::vector<QE>, std::greater<QE>> pq;
   std::vector<std::array<int, 2>> li;
   std::vector<double> lr;
   std::vector<std::vector<std::size_t>> levels;
@@ -185,36 +184,56 @@ void build_long_range(SolverArrays& s) {
     }
     if (anchors.size() < 2) break;
     std::size_t before = li.size();
-    // Join anchors: Dijkstra on rest lengths, no further than 2 S edges.
-    for (int a : anchors) {
-      touched.assign(1, a);
-      dist[a] = 0;
-      hop[a] = 0;
-      pq.push({0.0, a});
-      while (!pq.empty()) {
-        const auto [d, u] = pq.top();
-        pq.pop();
-        if (d > dist[u]) continue;
-        if (u != a && anchor[u] && u > a) {
-          li.push_back({a, u});
-          lr.push_back(d);
-        }
-        if (hop[u] >= 2 * S) continue;
-        for (int k = s.nbr_begin[u]; k < s.nbr_begin[u + 1]; ++k) {
-          const int w = s.nbr[k];
-          const double nd = d + s.nbr_rest[k];
-          if (nd < dist[w]) {
-            if (!std::isfinite(dist[w])) touched.push_back(w);
-            dist[w] = nd;
-            hop[w] = hop[u] + 1;
-            pq.push({nd, w});
+    // Join anchors: Dijkstra on rest lengths, no further than 2 S edges. The anchors in contiguous
+    // pieces, in parallel, each piece with its own scratch and its own list, joined in anchor order
+    // (the same limits in the same order as one thread would find).
+    const int na = static_cast<int>(anchors.size());
+    const int pieces = std::min(na, 4 * std::max(1, parallel::thread_count()));
+    std::vector<std::vector<std::array<int, 2>>> piece_li(pieces);
+    std::vector<std::vector<double>> piece_lr(pieces);
+    parallel::for_range(pieces, 1, [&](int p0, int p1) {
+      std::vector<double> dist(n, std::numeric_limits<double>::infinity());
+      std::vector<int> hop(n, -1), touched;
+      std::priority_queue<QE, std::vector<QE>, std::greater<QE>> pq;
+      for (int piece = p0; piece < p1; ++piece) {
+        const int a0 = static_cast<int>(std::int64_t(na) * piece / pieces);
+        const int a1 = static_cast<int>(std::int64_t(na) * (piece + 1) / pieces);
+        for (int q = a0; q < a1; ++q) {
+          const int a = anchors[q];
+          touched.assign(1, a);
+          dist[a] = 0;
+          hop[a] = 0;
+          pq.push({0.0, a});
+          while (!pq.empty()) {
+            const auto [d, u] = pq.top();
+            pq.pop();
+            if (d > dist[u]) continue;
+            if (u != a && anchor[u] && u > a) {
+              piece_li[piece].push_back({a, u});
+              piece_lr[piece].push_back(d);
+            }
+            if (hop[u] >= 2 * S) continue;
+            for (int k = s.nbr_begin[u]; k < s.nbr_begin[u + 1]; ++k) {
+              const int w = s.nbr[k];
+              const double nd = d + s.nbr_rest[k];
+              if (nd < dist[w]) {
+                if (!std::isfinite(dist[w])) touched.push_back(w);
+                dist[w] = nd;
+                hop[w] = hop[u] + 1;
+                pq.push({nd, w});
+              }
+            }
+          }
+          for (int u : touched) {
+            dist[u] = std::numeric_limits<double>::infinity();
+            hop[u] = -1;
           }
         }
       }
-      for (int u : touched) {
-        dist[u] = std::numeric_limits<double>::infinity();
-        hop[u] = -1;
-      }
+    });
+    for (int piece = 0; piece < pieces; ++piece) {
+      li.insert(li.end(), piece_li[piece].begin(), piece_li[piece].end());
+      lr.insert(lr.end(), piece_lr[piece].begin(), piece_lr[piece].end());
     }
     std::vector<std::size_t> idx;
     for (std::size_t k = before; k < li.size(); ++k) idx.push_back(k);

@@ -68,6 +68,7 @@ struct SolverArrays {
   std::vector<std::array<int, 2>> tacks;
   std::vector<int> over;  // edges beyond the strain limit this substep
   std::vector<std::vector<int>> over_pieces;
+  std::vector<int> over_runs;  // where each colour starts in `over`
 
   // ---- faces and adjacency ----
   std::vector<std::array<int, 3>> tris;

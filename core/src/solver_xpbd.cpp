@@ -59,8 +59,12 @@ void limit_strain(SolverArrays& s, double limit) {
     s.over.clear();
     for (const std::vector<int>& out : s.over_pieces) s.over.insert(s.over.end(), out.begin(), out.end());
     if (s.over.empty()) return;
-    for (int pass = 0; pass < kPasses; ++pass) {
-      for (int k : s.over) {
+    // The offending edges are in edge order, which is colour order: each colour's run shares no
+    // vertex and is projected in parallel (the same result as one thread, in any order); the
+    // colouring's overflow group (colour 63) serially.
+    auto project = [&](int b, int e) {
+      for (int q = b; q < e; ++q) {
+        const int k = s.over[q];
         const int i = s.e_i[k], j = s.e_j[k];
         const double wi = W[i], wj = W[j];
         const double wsum = wi + wj;
@@ -74,6 +78,21 @@ void limit_strain(SolverArrays& s, double limit) {
         const Vec3 corr = d * ((target - len) / (len * wsum));
         X[i] += wi * corr;
         X[j] -= wj * corr;
+      }
+    };
+    const int groups = static_cast<int>(s.e_color.size()) - 1;
+    s.over_runs.assign(1, 0);
+    for (int c = 0; c < groups; ++c)
+      s.over_runs.push_back(static_cast<int>(
+          std::lower_bound(s.over.begin() + s.over_runs.back(), s.over.end(), s.e_color[c + 1]) - s.over.begin()));
+    if (groups < 1) s.over_runs.push_back(static_cast<int>(s.over.size()));
+    for (int pass = 0; pass < kPasses; ++pass) {
+      for (std::size_t c = 0; c + 1 < s.over_runs.size(); ++c) {
+        const int b = s.over_runs[c], e = s.over_runs[c + 1];
+        if (c == 63 || groups < 1)
+          project(b, e);
+        else
+          parallel::for_range(e - b, 512, [&](int lo_, int hi_) { project(b + lo_, b + hi_); });
       }
     }
   }

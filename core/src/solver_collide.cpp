@@ -211,7 +211,10 @@ struct PairCollector : btDbvt::ICollide {
     const Vec3& C = s->x[tri[2]];
     double rel = 0;
     for (int k = 0; k < 3; ++k) rel = std::max(rel, (s->pred[v] - s->pred[tri[k]]).squaredNorm());
-    const double reach = th + std::sqrt(rel);
+    // resolve_self keeps a pair min(thickness, 0.6 spacing) apart: pairs that cannot come that
+    // close are none (on a mesh finer than the thickness, the full thickness would gather several
+    // rings of neighbours for every vertex, and more the finer the mesh).
+    const double reach = std::min(th, 0.6 * s->spacing[v]) + std::sqrt(rel);
     // The plane first (cheap): a vertex further from the triangle's plane than it can come during
     // the step is no pair.
     const Vec3 n = (B - A).cross(C - A);
@@ -259,7 +262,8 @@ void gather_self_pairs(SolverArrays& s, double thickness) {
   });
   parallel::for_range(static_cast<int>(s.vert_leaf.size()), 2048, [&](int b0, int e0) {
     for (int i = b0; i < e0; ++i) {
-      if (s.vert_leaf[i]) s.vert_leaf[i]->volume = to_bt(swept_box(s, i, thickness, 0.1, c));
+      if (s.vert_leaf[i])
+        s.vert_leaf[i]->volume = to_bt(swept_box(s, i, std::min(thickness, 0.6 * s.spacing[i]), 0.1, c));
     }
   });
   refit(s.tri_tree.m_root);

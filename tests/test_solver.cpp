@@ -206,6 +206,37 @@ TEST(Xpbd, SelfCollisionKeepsAFoldedClothFromPassingThroughItself) {
   }
 }
 
+TEST(Xpbd, SelfCollisionHoldsOnAMeshFinerThanTheThickness) {
+  // The same fold at 5 mm spacing, finer than the 4 mm thickness allows between neighbours: there
+  // the layers are kept 0.6 spacing = 3 mm apart, and culling gathers pairs at that distance (not
+  // at the full thickness, which would gather rings of each vertex's own neighbours). The upper
+  // layer must still rest on the lower one, not pass through it. This finer cloth also spreads
+  // sideways and rolls over the lower layer's long borders (z = 0, 0.3 m): only what is over the
+  // lower layer counts.
+  const int nx = 201, ny = 61;
+  Material mat;
+  Garment g = make_rectangle(1.0, 0.3, nx, ny, mat);
+  const double upper = fold_strip(g, 0.02);
+  for (Vertex v : g.mesh().vertices())
+    if (!g.pinned(v)) g.velocity(v) = Vec3(0, -1.0, 0);
+  SolverParams p;
+  p.body_collision = false;
+  Solver solver(p);
+  const double kept = std::min(mat.thickness, 0.6 * (1.0 / (nx - 1)));
+  double lowest = 1e9;
+  for (int step = 0; step < 30; ++step) {
+    solver.step(g, 1.0 / 60);
+    for (Vertex v : g.mesh().vertices()) {
+      const double u = double(v.idx() % nx) / (nx - 1);
+      const Vec3 q = g.position(v);
+      if (u > upper + 0.03 && q.x() > 0.02 && q.x() < 0.55 && q.z() > 0.02 && q.z() < 0.28)
+        lowest = std::min(lowest, q.y());
+    }
+  }
+  EXPECT_GE(lowest, 0.75 * kept) << "the upper layer stays on the lower one";
+  EXPECT_LT(lowest, 2 * mat.thickness) << "and has fallen onto it";
+}
+
 TEST(Xpbd, InvalidInputsThrowAndChangeNothing) {
   Garment g = make_rectangle(0.2, 0.2, 5, 5);
   const Garment before = g;

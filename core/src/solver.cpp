@@ -42,6 +42,29 @@ std::string vec_text(const Vec3& v) {
   return s.str();
 }
 Vertex vtx(int i) { return Vertex(static_cast<Mesh::size_type>(i)); }
+
+// The garment's own state, checked before the solver reads it.
+void check_garment(const Garment& garment) {
+  const Mesh& m = garment.mesh();
+  for (Vertex v : m.vertices()) {
+    if (!all_finite(garment.position(v)) || !all_finite(garment.velocity(v)) ||
+        !std::isfinite(garment.inverse_mass(v)) || garment.inverse_mass(v) < 0)
+      throw InputError("garment '" + garment.name + "' has a non-finite position, velocity or mass at vertex " +
+                       std::to_string(v.idx()) + ": reset or reload the garment");
+  }
+  for (Edge e : m.edges()) {
+    const double r = garment.rest_length(e);
+    if (!std::isfinite(r) || r <= 0)
+      throw InputError("garment '" + garment.name + "' has a rest length of " + std::to_string(r) +
+                       " on edge " + std::to_string(e.idx()) + ": rest lengths must be positive");
+  }
+}
+
+void build_if_needed(SolverArrays& s, const Garment& garment) {
+  if (!s.built || s.garment != &garment || s.topology != garment.topology_version() ||
+      s.n != garment.vertex_capacity())
+    solver_detail::rebuild(s, garment);
+}
 }  // namespace
 
 void SolverParams::validate() const {
@@ -472,21 +495,11 @@ void Solver::step(Garment& garment, double dt) {
   const std::size_t n = garment.vertex_capacity();
 
   // Check the input state before touching anything.
-  for (Vertex v : m.vertices()) {
-    if (!all_finite(garment.position(v)) || !all_finite(garment.velocity(v)) ||
-        !std::isfinite(garment.inverse_mass(v)) || garment.inverse_mass(v) < 0) {
-      forces_.clear();
-      throw InputError("garment '" + garment.name + "' has a non-finite position, velocity or mass at vertex " +
-                       std::to_string(v.idx()) + ": reset or reload the garment");
-    }
-  }
-  for (Edge e : m.edges()) {
-    const double r = garment.rest_length(e);
-    if (!std::isfinite(r) || r <= 0) {
-      forces_.clear();
-      throw InputError("garment '" + garment.name + "' has a rest length of " + std::to_string(r) +
-                       " on edge " + std::to_string(e.idx()) + ": rest lengths must be positive");
-    }
+  try {
+    check_garment(garment);
+  } catch (const InputError&) {
+    forces_.clear();
+    throw;
   }
   for (const auto& f : forces_) {
     if (f.vertex.idx() >= n || m.is_removed(f.vertex) || !all_finite(f.force)) {
@@ -497,8 +510,7 @@ void Solver::step(Garment& garment, double dt) {
   }
 
   State& s = *state_;
-  if (!s.built || s.garment != &garment || s.topology != garment.topology_version() || s.n != n)
-    solver_detail::rebuild(s, garment);
+  build_if_needed(s, garment);
 
   // Mirror the mesh into the flat arrays.
   const bool mass_spring = params_.model == SolverModel::MassSpring;
@@ -554,6 +566,12 @@ void Solver::step(Garment& garment, double dt) {
     garment.set_position(v, s.x[i]);
     garment.velocity(v) = s.v[i];
   }
+}
+
+void Solver::prepare(const Garment& garment) {
+  garment.material().validate();
+  check_garment(garment);
+  build_if_needed(*state_, garment);
 }
 
 std::vector<Vec3> Solver::spring_forces(const Garment& garment) const {

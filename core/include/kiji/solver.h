@@ -91,6 +91,12 @@ class Solver {
   void remove_attachment(int id);
   std::size_t attachment_count() const { return attachments_.size(); }
 
+  // Builds the solver's arrays for this garment now (constraints, colouring, long-range limits,
+  // collision trees): what the first step after a new garment or a topology edit would otherwise
+  // do. A caller that wants that step to come on time (a tool after a cut, a benchmark) pays for
+  // it here. Does nothing when they are up to date.
+  void prepare(const Garment& garment);
+
   // Advances the garment by dt seconds (params.substeps substeps), writing positions and velocities
   // back to the mesh. Throws InputError for dt <= 0 or non-finite, or if the garment's state is not
   // finite before the step.

@@ -342,6 +342,7 @@ void rebuild(SolverArrays& s, const Garment& g) {
   s.xp = s.x0 = s.v = s.fext = s.pred = s.x;
   s.w.assign(n, 0.0);
   s.surprise.assign(n, 0.0);
+  s.surprise_self.assign(n, 0.0);
   for (Vertex v : m.vertices()) s.alive[v.idx()] = 1;
 
   // Spatial order of the vertices (for collision clusters): Morton code of the current positions.

@@ -30,6 +30,7 @@ struct SolverArrays {
   std::vector<Vec3> x, xp, x0, v, fext, pred;
   std::vector<double> w;              // inverse mass used by the model (0 = fixed)
   std::vector<double> surprise;       // |end of the last step - its predicted end| (collision margin)
+  std::vector<double> surprise_self;  // the same less the cloth's mean miss (self-collision margin)
 
   // ---- stretch: one distance constraint per edge, sorted by colour ----
   std::vector<int> e_i, e_j;

@@ -284,8 +284,21 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
           if (s.moving[i]) s.path[i] += (X[i] - s.xp[i]).norm();
       });
   }
+  // How far each vertex ended from its prediction, for the next step's culling: as it is (body),
+  // and less the mean of it over the cloth (self-collision, culled in the frame of the cloth's
+  // common motion: a falling cloth all misses its prediction by g dt^2 together).
+  Vec3 common_miss = Vec3::Zero();
+  std::size_t nm = 0;
+  for (std::size_t i = 0; i < n; ++i)
+    if (s.moving[i]) common_miss += X[i] - s.x0[i] - s.pred[i], ++nm;
+  if (nm) common_miss /= double(nm);
+  s.surprise_self.resize(n);
   parallel::for_range(static_cast<int>(n), kVertexGrain, [&](int b, int e) {
-    for (int i = b; i < e; ++i) s.surprise[i] = s.moving[i] ? (X[i] - s.x0[i] - s.pred[i]).norm() : 0.0;
+    for (int i = b; i < e; ++i) {
+      const Vec3 miss = s.moving[i] ? Vec3(X[i] - s.x0[i] - s.pred[i]) : Vec3::Zero();
+      s.surprise[i] = miss.norm();
+      s.surprise_self[i] = (miss - common_miss).norm();
+    }
   });
 }
 

@@ -344,9 +344,9 @@ int bench_command(const std::vector<std::string>& argv) {
     const ClothResult b = run_bullet(n, steps);
     const double ratio = b.ms_per_step / x.ms_per_step;
     // xpbd at its cheapest and still no more stretched than Bullet's cloth (max and mean strain):
-    // the speed at equal or better strain. Every substep count of 1-10, with and without the strain
-    // limit (which costs a few Gauss-Seidel passes a substep over the edges beyond it); the
-    // fastest of those whose strain is no worse.
+    // the speed at equal or better strain. 1, 2, 3, 5 and 10 substeps, each with and without the
+    // strain limit (a few Gauss-Seidel passes a substep over the edges beyond it); the fastest of
+    // those whose strain is no worse.
     int matched = 0;
     bool matched_limit = true;
     ClothResult xm;

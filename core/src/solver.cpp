@@ -216,16 +216,16 @@ void build_long_range(SolverArrays& s) {
     std::vector<std::vector<double>> piece_lr(pieces);
     parallel::for_range(pieces, 1, [&](int p0, int p1) {
       std::vector<double> dist(n, std::numeric_limits<double>::infinity());
-      std::vector<int> hop(n, -1), touched;
+      std::vector<int> hops(n, -1), reached;
       std::priority_queue<QE, std::vector<QE>, std::greater<QE>> pq;
       for (int piece = p0; piece < p1; ++piece) {
         const int a0 = static_cast<int>(std::int64_t(na) * piece / pieces);
         const int a1 = static_cast<int>(std::int64_t(na) * (piece + 1) / pieces);
         for (int q = a0; q < a1; ++q) {
           const int a = anchors[q];
-          touched.assign(1, a);
+          reached.assign(1, a);
           dist[a] = 0;
-          hop[a] = 0;
+          hops[a] = 0;
           pq.push({0.0, a});
           while (!pq.empty()) {
             const auto [d, u] = pq.top();
@@ -235,21 +235,21 @@ void build_long_range(SolverArrays& s) {
               piece_li[piece].push_back({a, u});
               piece_lr[piece].push_back(d);
             }
-            if (hop[u] >= 2 * S) continue;
+            if (hops[u] >= 2 * S) continue;
             for (int k = s.nbr_begin[u]; k < s.nbr_begin[u + 1]; ++k) {
               const int w = s.nbr[k];
               const double nd = d + s.nbr_rest[k];
               if (nd < dist[w]) {
-                if (!std::isfinite(dist[w])) touched.push_back(w);
+                if (!std::isfinite(dist[w])) reached.push_back(w);
                 dist[w] = nd;
-                hop[w] = hop[u] + 1;
+                hops[w] = hops[u] + 1;
                 pq.push({nd, w});
               }
             }
           }
-          for (int u : touched) {
+          for (int u : reached) {
             dist[u] = std::numeric_limits<double>::infinity();
-            hop[u] = -1;
+            hops[u] = -1;
           }
         }
       }

@@ -1,6 +1,7 @@
 // Body import: the default body, other formats, units and up axes, and the errors a user meets.
 #include "kiji/body.h"
 #include "kiji/error.h"
+#include "test_errors.h"
 
 #include <gtest/gtest.h>
 
@@ -11,6 +12,7 @@
 #include <limits>
 
 using namespace kiji;
+using kiji::test::input_error;
 
 namespace {
 
@@ -21,18 +23,6 @@ std::string tmp_file(const std::string& name, const std::string& text) {
   const std::string path = std::string(KIJI_TEST_TMP) + "/" + name;
   std::ofstream(path, std::ios::binary) << text;
   return path;
-}
-
-// The message of the InputError that f throws (fails the test if it throws nothing else).
-template <typename F>
-std::string input_error(F&& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "expected an InputError";
-  return {};
 }
 
 // Signed volume of the closed-ish surface: positive when the triangles face outward.

@@ -1,6 +1,7 @@
 // Garment files: .glb and .obj round trips (positions, uv seams, colour, texture) and errors.
 #include "kiji/body.h"
 #include "kiji/error.h"
+#include "test_errors.h"
 #include "kiji/io.h"
 #include "kiji/pattern.h"
 #include "kiji/render.h"
@@ -14,6 +15,7 @@
 #include <sstream>
 
 using namespace kiji;
+using kiji::test::input_error;
 
 namespace {
 
@@ -27,17 +29,6 @@ std::string slurp(const std::string& path) {
   std::ostringstream s;
   s << in.rdbuf();
   return s.str();
-}
-
-template <typename F>
-std::string input_error(F&& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "expected an InputError";
-  return {};
 }
 
 // A 1 x 0.5 m rectangle, 5 x 3 vertices, draped a little out of plane, with a uv seam down the

@@ -175,13 +175,13 @@ void resolve_body_against(SolverArrays& s, int i, double th, double mu, const in
 
 void resolve_escaped(SolverArrays& s, const BodyCollider& collider, double th, double mu) {
   if (s.box.size() != s.n) return;
-  const int n = static_cast<int>(s.n);
+  const int na = static_cast<int>(s.act.size());
   s.escaped.resize(s.n);
-  parallel::for_range(n, 4096, [&](int b, int e) {
-    for (int i = b; i < e; ++i) s.escaped[i] = s.moving[i] && !s.box[i].contains(s.x[i]);
+  parallel::for_range(na, 4096, [&](int b, int e) {
+    for (int a = b; a < e; ++a) s.escaped[s.act[a]] = !s.box[s.act[a]].contains(s.x[s.act[a]]);
   });
   std::vector<int> tris;
-  for (int i = 0; i < n; ++i) {
+  for (int i : s.act) {
     if (!s.escaped[i]) continue;
     Box3 b(s.xp[i].cwiseMin(s.x[i]), s.xp[i].cwiseMax(s.x[i]));
     b.min() -= Vec3::Constant(1.5 * th);
@@ -241,39 +241,28 @@ struct PairCollector : btDbvt::ICollide {
 // s c from both keeps their distance, so boxes swept over pred - c are as good as boxes swept over
 // pred, and far smaller when the whole cloth falls or is carried together (a falling 20,000-vertex
 // cloth went from ~5 million box overlaps a step to ~0.6 million, what it has at rest).
-// The vertex tree is cut into subtrees, each intersected with the triangle tree on its own (in
-// parallel) into its own list; the lists are joined in subtree order, the same for any number of
-// threads.
-void gather_self_pairs(SolverArrays& s, double thickness) {
-  s.self_pairs.clear();
-  if (!s.tri_tree.m_root || !s.vert_tree.m_root) return;
-  Vec3 c = Vec3::Zero();
-  std::size_t nm = 0;
-  for (std::size_t i = 0; i < s.n; ++i)
-    if (s.moving[i]) c += s.pred[i], ++nm;
-  if (nm) c /= double(nm);
-  parallel::for_range(static_cast<int>(s.tris.size()), 2048, [&](int b0, int e0) {
-    for (int t = b0; t < e0; ++t) {
-      Box3 b;
-      for (int k = 0; k < 3; ++k) {
-        const int u = s.tris[t][k];
-        b.extend(s.x[u]);
-        b.extend(Vec3(s.x[u] + s.pred[u] - c));
-      }
-      s.tri_leaf[t]->volume = to_bt(b);
-    }
-  });
-  parallel::for_range(static_cast<int>(s.vert_leaf.size()), 2048, [&](int b0, int e0) {
-    for (int i = b0; i < e0; ++i) {
-      if (s.vert_leaf[i])
-        s.vert_leaf[i]->volume =
-            to_bt(swept_box(s, s.surprise_self, i, std::min(thickness, 0.6 * s.spacing[i]), 0.1, c));
-    }
-  });
+//
+// Only pairs with a moving vertex can do anything: those of a moving vertex with any triangle, and
+// those of a held vertex (a pin, outside the local region) with a triangle that has a moving
+// corner. Each kind is one intersection of the two trees, with the leaves that cannot be in it
+// given an empty box (which never meets anything and leaves its parent's box as it is), so that a
+// region of 1,000 moving vertices searches what 1,000 vertices need; when everything moves, the
+// second search is not run.
+// The vertex tree is cut into subtrees with something in them, each intersected with the triangle
+// tree on its own (in parallel) into its own list; the lists are joined in subtree order, the same
+// for any number of threads.
+namespace {
+const btDbvtVolume kNothing =
+    btDbvtVolume::FromMM(btVector3(1e300, 1e300, 1e300), btVector3(-1e300, -1e300, -1e300));
+
+bool is_nothing(const btDbvtVolume& v) { return v.Mins().x() > v.Maxs().x(); }
+
+void collide_trees(SolverArrays& s, double thickness) {
   refit(s.tri_tree.m_root);
   refit(s.vert_tree.m_root);
+  if (is_nothing(s.vert_tree.m_root->volume) || is_nothing(s.tri_tree.m_root->volume)) return;
   // Subtrees of the vertex tree, breadth first, to about 64 (a fixed cut: the same for any thread
-  // count).
+  // count), leaving out those with nothing in them.
   std::vector<const btDbvtNode*> roots{s.vert_tree.m_root}, next;
   for (bool split = true; split && roots.size() < 64;) {
     split = false;
@@ -281,11 +270,11 @@ void gather_self_pairs(SolverArrays& s, double thickness) {
     for (const btDbvtNode* node : roots) {
       if (node->isleaf()) {
         next.push_back(node);
-      } else {
-        next.push_back(node->childs[0]);
-        next.push_back(node->childs[1]);
-        split = true;
+        continue;
       }
+      for (const btDbvtNode* child : node->childs)
+        if (!is_nothing(child->volume)) next.push_back(child);
+      split = true;
     }
     roots.swap(next);
   }
@@ -302,6 +291,75 @@ void gather_self_pairs(SolverArrays& s, double thickness) {
   });
   for (std::size_t r = 0; r < roots.size(); ++r)
     s.self_pairs.insert(s.self_pairs.end(), s.self_gather[r].begin(), s.self_gather[r].end());
+}
+}  // namespace
+
+void gather_self_pairs(SolverArrays& s, double thickness) {
+  s.self_pairs.clear();
+  s.last_self_pairs = 0;
+  if (!s.tri_tree.m_root || !s.vert_tree.m_root) return;
+  Vec3 c = Vec3::Zero();
+  std::size_t nm = 0, held = 0;
+  for (std::size_t i = 0; i < s.n; ++i) {
+    if (s.moving[i]) c += s.pred[i], ++nm;
+    else held += s.alive[i];
+  }
+  if (nm == 0) return;
+  c /= double(nm);
+  const unsigned char* M = s.moving.data();
+  // The boxes of what the step sweeps: every triangle's, and every vertex's.
+  s.tri_box.resize(s.tris.size());
+  parallel::for_range(static_cast<int>(s.tris.size()), 2048, [&](int b0, int e0) {
+    for (int t = b0; t < e0; ++t) {
+      Box3 b;
+      for (int k = 0; k < 3; ++k) {
+        const int u = s.tris[t][k];
+        b.extend(s.x[u]);
+        b.extend(Vec3(s.x[u] + s.pred[u] - c));
+      }
+      s.tri_box[t] = to_bt(b);
+    }
+  });
+  s.vert_box.resize(s.n);
+  parallel::for_range(static_cast<int>(s.n), 2048, [&](int b0, int e0) {
+    for (int i = b0; i < e0; ++i)
+      if (s.vert_leaf[i])
+        s.vert_box[i] = to_bt(swept_box(s, s.surprise_self, i, std::min(thickness, 0.6 * s.spacing[i]), 0.1, c));
+  });
+  // What the moving vertices sweep, and what the triangles with a moving corner sweep: nothing
+  // outside these can be in a pair.
+  btDbvtVolume moving_bound = kNothing, active_bound = kNothing;
+  for (std::size_t i = 0; i < s.n; ++i)
+    if (M[i]) Merge(moving_bound, s.vert_box[i], moving_bound);
+  if (held > 0)
+    for (std::size_t t = 0; t < s.tris.size(); ++t) {
+      const auto& tri = s.tris[t];
+      if (M[tri[0]] || M[tri[1]] || M[tri[2]]) Merge(active_bound, s.tri_box[t], active_bound);
+    }
+  auto set_leaves = [&](bool of_moving, const btDbvtVolume& vert_within, const btDbvtVolume& tri_within) {
+    parallel::for_range(static_cast<int>(s.n), 2048, [&](int b0, int e0) {
+      for (int i = b0; i < e0; ++i)
+        if (s.vert_leaf[i])
+          s.vert_leaf[i]->volume =
+              ((M[i] != 0) == of_moving && Intersect(s.vert_box[i], vert_within)) ? s.vert_box[i] : kNothing;
+    });
+    parallel::for_range(static_cast<int>(s.tris.size()), 2048, [&](int b0, int e0) {
+      for (int t = b0; t < e0; ++t) {
+        const auto& tri = s.tris[t];
+        const bool may = of_moving || M[tri[0]] || M[tri[1]] || M[tri[2]];
+        s.tri_leaf[t]->volume = (may && Intersect(s.tri_box[t], tri_within)) ? s.tri_box[t] : kNothing;
+      }
+    });
+  };
+  // Moving vertices against all triangles (those within their reach).
+  set_leaves(true, moving_bound, moving_bound);
+  collide_trees(s, thickness);
+  if (held > 0) {
+    // Held vertices (those within reach of a moving triangle) against the triangles with a moving
+    // corner.
+    set_leaves(false, active_bound, active_bound);
+    collide_trees(s, thickness);
+  }
   s.last_self_pairs = s.self_pairs.size();
 }
 

@@ -55,6 +55,20 @@ struct SolverArrays {
   };
   std::vector<Bend> bends;
   std::vector<int> b_color;
+
+  // ---- this step's share of the constraints ----
+  // When some live vertices are held this step (pins, the paper's local region), the constraints
+  // with a moving vertex are copied here in the same order and the same colour groups (as many
+  // groups as the full arrays, empty ones included), so that a region of 1,000 moving vertices in
+  // a 20,000-vertex garment costs what 1,000 vertices cost; when every live vertex moves, the full
+  // arrays are used as they are.
+  std::vector<int> act;               // the moving vertices, in index order
+  std::vector<int> ae_i, ae_j, ae_color;
+  std::vector<double> ae_rest;
+  std::vector<int> al_i, al_j, al_groups;
+  std::vector<double> al_rest;
+  std::vector<Bend> a_bends;
+  std::vector<int> ab_color;
   std::vector<double> lam_e;          // XPBD multipliers (reset every substep)
   std::vector<Vec3> lam_b;
   std::vector<Vec3> force;            // MassSpring: force per vertex
@@ -104,6 +118,7 @@ struct SolverArrays {
   };
   std::vector<SelfPair> self_pairs;
   std::vector<std::vector<SelfPair>> self_gather;
+  std::vector<btDbvtVolume> tri_box, vert_box;  // what each triangle and vertex sweeps this step
   // Per vertex, for skipping far pairs: the length of its path this step up to the last substep,
   // and up to now (path + this substep's motion + the self-collision pushes it has had).
   std::vector<double> path, reach;  // one list per vertex subtree, joined in order

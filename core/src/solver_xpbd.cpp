@@ -28,16 +28,89 @@ namespace kiji::solver_detail {
 
 namespace {
 
+// The constraints a step solves: the solver's full arrays, or this step's copy of those with a
+// moving vertex (same order, same colour groups).
+struct Constraints {
+  const int *e_i, *e_j;
+  const double* e_rest;
+  const std::vector<int>* e_color;
+  int ne;
+  const int *l_i, *l_j;
+  const double* l_rest;
+  const std::vector<int>* l_groups;
+  const SolverArrays::Bend* bends;
+  const std::vector<int>* b_color;
+  int nb;
+};
+
+// Copies of the groups [offsets[c], offsets[c + 1]) keeping what `keep` says, with the same number
+// of groups (the overflow group keeps its index).
+template <typename Keep, typename Copy>
+void select_groups(const std::vector<int>& offsets, std::vector<int>& out_offsets, Keep keep, Copy copy) {
+  out_offsets.assign(1, 0);
+  int kept = 0;
+  for (std::size_t c = 0; c + 1 < offsets.size(); ++c) {
+    for (int k = offsets[c]; k < offsets[c + 1]; ++k)
+      if (keep(k)) copy(k), ++kept;
+    out_offsets.push_back(kept);
+  }
+}
+
+Constraints select_constraints(SolverArrays& s) {
+  const unsigned char* M = s.moving.data();
+  s.act.clear();
+  std::size_t live = 0;
+  for (std::size_t i = 0; i < s.n; ++i) {
+    live += s.alive[i];
+    if (M[i]) s.act.push_back(static_cast<int>(i));
+  }
+  if (s.act.size() == live)
+    return {s.e_i.data(), s.e_j.data(), s.e_rest.data(), &s.e_color, static_cast<int>(s.e_i.size()),
+            s.l_i.data(), s.l_j.data(), s.l_rest.data(), &s.l_groups,
+            s.bends.data(), &s.b_color, static_cast<int>(s.bends.size())};
+  s.ae_i.clear();
+  s.ae_j.clear();
+  s.ae_rest.clear();
+  select_groups(
+      s.e_color, s.ae_color, [&](int k) { return M[s.e_i[k]] || M[s.e_j[k]]; },
+      [&](int k) {
+        s.ae_i.push_back(s.e_i[k]);
+        s.ae_j.push_back(s.e_j[k]);
+        s.ae_rest.push_back(s.e_rest[k]);
+      });
+  s.al_i.clear();
+  s.al_j.clear();
+  s.al_rest.clear();
+  select_groups(
+      s.l_groups, s.al_groups, [&](int k) { return M[s.l_i[k]] || M[s.l_j[k]]; },
+      [&](int k) {
+        s.al_i.push_back(s.l_i[k]);
+        s.al_j.push_back(s.l_j[k]);
+        s.al_rest.push_back(s.l_rest[k]);
+      });
+  s.a_bends.clear();
+  select_groups(
+      s.b_color, s.ab_color,
+      [&](int k) {
+        const int* v = s.bends[k].v;
+        return M[v[0]] || M[v[1]] || M[v[2]] || M[v[3]];
+      },
+      [&](int k) { s.a_bends.push_back(s.bends[k]); });
+  return {s.ae_i.data(), s.ae_j.data(), s.ae_rest.data(), &s.ae_color, static_cast<int>(s.ae_i.size()),
+          s.al_i.data(), s.al_j.data(), s.al_rest.data(), &s.al_groups,
+          s.a_bends.data(), &s.ab_color, static_cast<int>(s.a_bends.size())};
+}
+
 // Projects every edge beyond (1 +- limit) x rest back to the limit (Provot 1995): Gauss-Seidel
 // passes over the edges found beyond it. Fixing one edge can push a neighbour past the limit, so
 // the edges are looked for again, a few rounds at most; each round costs one scan of the edges and
 // the passes touch only the offending ones. One round of four passes left fold and crown edges at
 // 9-14 % on a 10,000-vertex drape; four rounds of two bring them to 6-7 %.
-void limit_strain(SolverArrays& s, double limit) {
+void limit_strain(SolverArrays& s, const Constraints& cs, double limit) {
   constexpr int kRounds = 4, kPasses = 2;
   Vec3* X = s.x.data();
   const double* W = s.w.data();
-  const int ne = static_cast<int>(s.e_i.size());
+  const int ne = cs.ne;
   const double hi = 1 + limit, lo = 1 - limit;
   for (int round = 0; round < kRounds; ++round) {
     // The scan in contiguous pieces (in parallel), each into its own list, joined in order.
@@ -50,8 +123,8 @@ void limit_strain(SolverArrays& s, double limit) {
         const int k0 = static_cast<int>(std::int64_t(ne) * piece / pieces);
         const int k1 = static_cast<int>(std::int64_t(ne) * (piece + 1) / pieces);
         for (int k = k0; k < k1; ++k) {
-          const double r = s.e_rest[k];
-          const double l2 = (X[s.e_i[k]] - X[s.e_j[k]]).squaredNorm();
+          const double r = cs.e_rest[k];
+          const double l2 = (X[cs.e_i[k]] - X[cs.e_j[k]]).squaredNorm();
           if (l2 > hi * hi * r * r || l2 < lo * lo * r * r) out.push_back(k);
         }
       }
@@ -65,14 +138,14 @@ void limit_strain(SolverArrays& s, double limit) {
     auto project = [&](int b, int e) {
       for (int q = b; q < e; ++q) {
         const int k = s.over[q];
-        const int i = s.e_i[k], j = s.e_j[k];
+        const int i = cs.e_i[k], j = cs.e_j[k];
         const double wi = W[i], wj = W[j];
         const double wsum = wi + wj;
         if (wsum == 0) continue;
         const Vec3 d = X[i] - X[j];
         const double len = d.norm();
         if (!(len > 1e-12)) continue;
-        const double r = s.e_rest[k];
+        const double r = cs.e_rest[k];
         const double target = std::clamp(len, lo * r, hi * r);
         if (target == len) continue;
         const Vec3 corr = d * ((target - len) / (len * wsum));
@@ -80,11 +153,12 @@ void limit_strain(SolverArrays& s, double limit) {
         X[j] -= wj * corr;
       }
     };
-    const int groups = static_cast<int>(s.e_color.size()) - 1;
+    const std::vector<int>& colours = *cs.e_color;
+    const int groups = static_cast<int>(colours.size()) - 1;
     s.over_runs.assign(1, 0);
     for (int c = 0; c < groups; ++c)
       s.over_runs.push_back(static_cast<int>(
-          std::lower_bound(s.over.begin() + s.over_runs.back(), s.over.end(), s.e_color[c + 1]) - s.over.begin()));
+          std::lower_bound(s.over.begin() + s.over_runs.back(), s.over.end(), colours[c + 1]) - s.over.begin()));
     if (groups < 1) s.over_runs.push_back(static_cast<int>(s.over.size()));
     for (int pass = 0; pass < kPasses; ++pass) {
       for (std::size_t c = 0; c + 1 < s.over_runs.size(); ++c) {
@@ -131,6 +205,10 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
   const double th = m.thickness;
   const Vec3 g = p.gravity;
 
+  const Constraints cs = select_constraints(s);
+  const int* act = s.act.data();
+  const int na = static_cast<int>(s.act.size());
+
   // Predicted motion over the whole step, for collision culling. Gravity is left out: on cloth
   // resting on the body or on itself (most of a draped garment) the contacts cancel it, and it
   // would give every resting vertex g dt^2 = 2.7 mm more box (more candidates and pairs) for
@@ -155,17 +233,17 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
   const double alpha_s = 1.0 / (m.stretch_stiffness * h * h);
   const bool bending = m.bending_stiffness > 0;
   const double alpha_b = bending ? 1.0 / (m.bending_stiffness * h * h) : 0.0;
-  const int ne = static_cast<int>(s.e_i.size());
-  const int nb = static_cast<int>(s.bends.size());
+  const int ne = cs.ne;
+  const int nb = cs.nb;
   s.lam_e.resize(ne);
   s.lam_b.resize(nb);
 
   Vec3* X = s.x.data();
   const double* W = s.w.data();
   for (int sub = 0; sub < substeps; ++sub) {
-    parallel::for_range(static_cast<int>(n), kVertexGrain, [&](int b, int e) {
-      for (int i = b; i < e; ++i) {
-        if (!s.moving[i]) continue;
+    parallel::for_range(na, kVertexGrain, [&](int b, int e) {
+      for (int a = b; a < e; ++a) {
+        const int i = act[a];
         s.xp[i] = X[i];
         s.v[i] = (s.v[i] + h * (g + W[i] * s.fext[i])) * damp;
         X[i] += h * s.v[i];
@@ -176,12 +254,12 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
     for (int it = 0; it < p.iterations; ++it) {
       auto limits = [&](int b, int e) {  // long-range limits
         for (int k = b; k < e; ++k) {
-          const int i = s.l_i[k], j = s.l_j[k];
+          const int i = cs.l_i[k], j = cs.l_j[k];
           const double wsum = W[i] + W[j];
           if (wsum == 0) continue;
           const Vec3 d = X[i] - X[j];
           const double len2 = d.squaredNorm();
-          const double rest = s.l_rest[k];
+          const double rest = cs.l_rest[k];
           if (len2 <= rest * rest) continue;
           const double len = std::sqrt(len2);
           const Vec3 corr = d * ((rest - len) / (len * wsum));
@@ -189,8 +267,9 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
           X[j] -= W[j] * corr;
         }
       };
-      for (std::size_t c = 0; c + 1 < s.l_groups.size(); ++c) {  // coarse to fine
-        const int b = s.l_groups[c], e = s.l_groups[c + 1];
+      const std::vector<int>& groups = *cs.l_groups;
+      for (std::size_t c = 0; c + 1 < groups.size(); ++c) {  // coarse to fine
+        const int b = groups[c], e = groups[c + 1];
         if (s.l_serial[c])
           limits(b, e);
         else
@@ -198,13 +277,13 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
       }
       auto stretch = [&](int b, int e) {
         for (int k = b; k < e; ++k) {
-          const int i = s.e_i[k], j = s.e_j[k];
+          const int i = cs.e_i[k], j = cs.e_j[k];
           const double wsum = W[i] + W[j];
           if (wsum == 0) continue;
           const Vec3 d = X[i] - X[j];
           const double len = d.norm();
           if (!(len > 1e-12)) continue;
-          const double C = len - s.e_rest[k];
+          const double C = len - cs.e_rest[k];
           const double dl = (-C - alpha_s * s.lam_e[k]) / (wsum + alpha_s);
           s.lam_e[k] += dl;
           const Vec3 corr = d * (dl / len);
@@ -212,11 +291,11 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
           X[j] -= W[j] * corr;
         }
       };
-      by_colour(s.e_color, ne, stretch);
+      by_colour(*cs.e_color, ne, stretch);
       if (bending) {
         auto bend = [&](int first, int last) {
           for (int k = first; k < last; ++k) {
-            const SolverArrays::Bend& b = s.bends[k];
+            const SolverArrays::Bend& b = cs.bends[k];
             const double w0 = W[b.v[0]], w1 = W[b.v[1]], w2 = W[b.v[2]], w3 = W[b.v[3]];
             const double wg = w0 * b.g[0] * b.g[0] + w1 * b.g[1] * b.g[1] + w2 * b.g[2] * b.g[2] +
                               w3 * b.g[3] * b.g[3];
@@ -230,7 +309,7 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
             X[b.v[3]] += (w3 * b.g[3]) * dl;
           }
         };
-        by_colour(s.b_color, nb, bend);
+        by_colour(*cs.b_color, nb, bend);
       }
     }
     // Tacks: zero-length, as stiff as the cloth, but closing by at most half the thickness a
@@ -253,12 +332,15 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
     // resolved in the next substep), then the hands, then the body last, so nothing ends a
     // substep inside it.
     if (!s.self_pairs.empty()) {
-      parallel::for_range(static_cast<int>(n), kVertexGrain, [&](int b, int e) {
-        for (int i = b; i < e; ++i) s.reach[i] = s.moving[i] ? s.path[i] + (X[i] - s.xp[i]).norm() : 0.0;
+      parallel::for_range(na, kVertexGrain, [&](int b, int e) {
+        for (int a = b; a < e; ++a) {
+          const int i = act[a];
+          s.reach[i] = s.path[i] + (X[i] - s.xp[i]).norm();
+        }
       });
       resolve_self(s, th);
     }
-    if (p.strain_limit > 0) limit_strain(s, p.strain_limit);
+    if (p.strain_limit > 0) limit_strain(s, cs, p.strain_limit);
     // Hands (zero-length springs to a point, compliance 1 / k), after the cloth's own constraints
     // and the strain limit so that they win ties: a hand can stretch the cloth past the limit, and
     // so tear it.
@@ -274,14 +356,18 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
     });
     if (body && !s.body_tris.empty()) resolve_escaped(s, *body, th, m.friction);
     const double inv_h = 1.0 / h;
-    parallel::for_range(static_cast<int>(n), kVertexGrain, [&](int b, int e) {
-      for (int i = b; i < e; ++i)
-        if (s.moving[i]) s.v[i] = (X[i] - s.xp[i]) * inv_h;
+    parallel::for_range(na, kVertexGrain, [&](int b, int e) {
+      for (int a = b; a < e; ++a) {
+        const int i = act[a];
+        s.v[i] = (X[i] - s.xp[i]) * inv_h;
+      }
     });
     if (!s.self_pairs.empty())
-      parallel::for_range(static_cast<int>(n), kVertexGrain, [&](int b, int e) {
-        for (int i = b; i < e; ++i)
-          if (s.moving[i]) s.path[i] += (X[i] - s.xp[i]).norm();
+      parallel::for_range(na, kVertexGrain, [&](int b, int e) {
+        for (int a = b; a < e; ++a) {
+          const int i = act[a];
+          s.path[i] += (X[i] - s.xp[i]).norm();
+        }
       });
   }
   // How far each vertex ended from its prediction, for the next step's culling: as it is (body),

@@ -108,7 +108,7 @@ TEST(Cli, BenchPrintsEveryFigureAsJson) {
   CliRun r = run("bench --quick --json");
   ASSERT_EQ(r.code, 0) << r.out;
   for (const char* field :
-       {"\"paper\":", "\"tool_rates\":", "\"vertices\": 289", "\"pinch\": {\"steps_per_second\":", "\"tear\":",
+       {"\"paper\":", "\"tool_rates\":", "\"vertices\": 289", "\"pinch\": {\"steps_per_second\":", "\"pinch_local\":", "\"local_radius_m\":", "\"moving_vertices\":", "\"tear\":",
         "\"cut\":", "\"sew\":", "\"paint\":", "\"frames_per_second\":", "\"versus_bullet\":", "\"xpbd\":",
         "\"mass_spring\":", "\"bullet\":", "\"speedup_xpbd_over_bullet\":", "\"matched_substeps\":", "\"xpbd_matched\":",
         "\"speedup_at_equal_strain\":", "\"matched_strain_limit\":", "\"setup_ms\":", "\"max_strain\":", "\"sag_m\":",

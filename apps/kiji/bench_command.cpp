@@ -119,7 +119,8 @@ std::vector<ToolRate> tool_rates(const Body& body, int vertices, int frames, std
       const SurfaceHit under = s.pick(above, down);
       if (f == 0 && !under.hit)
         throw std::runtime_error("the bench's " + name + " stroke begins off the cloth: its figures would be of steps alone");
-      e.position = under.hit ? Vec3(under.point - 0.001 * down) : above;
+      // Off the cloth (it has slid away under the pen), the pen goes on at the height it had.
+      e.position = under.hit ? Vec3(under.point - 0.001 * down) : Vec3(above.x(), last.y(), above.z());
       e.ray = down;
       last = e.position;
       const auto t0 = Clock::now();

@@ -247,7 +247,8 @@ struct PairCollector : btDbvt::ICollide {
 // corner. Each kind is one intersection of the two trees, with the leaves that cannot be in it
 // given an empty box (which never meets anything and leaves its parent's box as it is), so that a
 // region of 1,000 moving vertices searches what 1,000 vertices need; when everything moves, the
-// second search is not run.
+// second search is not run, nor when the held vertices are few (pins): then one search of
+// everything costs less.
 // The vertex tree is cut into subtrees with something in them, each intersected with the triangle
 // tree on its own (in parallel) into its own list; the lists are joined in subtree order, the same
 // for any number of threads.
@@ -307,6 +308,9 @@ void gather_self_pairs(SolverArrays& s, double thickness) {
   if (nm == 0) return;
   c /= double(nm);
   const unsigned char* M = s.moving.data();
+  // A few held vertices (pins): one search of everything costs less than two; the leaves get their
+  // boxes as they are computed.
+  const bool one_search = 10 * held < nm;
   // The boxes of what the step sweeps: every triangle's, and every vertex's.
   s.tri_box.resize(s.tris.size());
   parallel::for_range(static_cast<int>(s.tris.size()), 2048, [&](int b0, int e0) {
@@ -318,24 +322,31 @@ void gather_self_pairs(SolverArrays& s, double thickness) {
         b.extend(Vec3(s.x[u] + s.pred[u] - c));
       }
       s.tri_box[t] = to_bt(b);
+      if (one_search) s.tri_leaf[t]->volume = s.tri_box[t];
     }
   });
   s.vert_box.resize(s.n);
   parallel::for_range(static_cast<int>(s.n), 2048, [&](int b0, int e0) {
-    for (int i = b0; i < e0; ++i)
-      if (s.vert_leaf[i])
-        s.vert_box[i] = to_bt(swept_box(s, s.surprise_self, i, std::min(thickness, 0.6 * s.spacing[i]), 0.1, c));
+    for (int i = b0; i < e0; ++i) {
+      if (!s.vert_leaf[i]) continue;
+      s.vert_box[i] = to_bt(swept_box(s, s.surprise_self, i, std::min(thickness, 0.6 * s.spacing[i]), 0.1, c));
+      if (one_search) s.vert_leaf[i]->volume = s.vert_box[i];
+    }
   });
+  if (one_search) {
+    collide_trees(s, thickness);
+    s.last_self_pairs = s.self_pairs.size();
+    return;
+  }
   // What the moving vertices sweep, and what the triangles with a moving corner sweep: nothing
   // outside these can be in a pair.
   btDbvtVolume moving_bound = kNothing, active_bound = kNothing;
   for (std::size_t i = 0; i < s.n; ++i)
     if (M[i]) Merge(moving_bound, s.vert_box[i], moving_bound);
-  if (held > 0)
-    for (std::size_t t = 0; t < s.tris.size(); ++t) {
-      const auto& tri = s.tris[t];
-      if (M[tri[0]] || M[tri[1]] || M[tri[2]]) Merge(active_bound, s.tri_box[t], active_bound);
-    }
+  for (std::size_t t = 0; t < s.tris.size(); ++t) {
+    const auto& tri = s.tris[t];
+    if (M[tri[0]] || M[tri[1]] || M[tri[2]]) Merge(active_bound, s.tri_box[t], active_bound);
+  }
   auto set_leaves = [&](bool of_moving, const btDbvtVolume& vert_within, const btDbvtVolume& tri_within) {
     parallel::for_range(static_cast<int>(s.n), 2048, [&](int b0, int e0) {
       for (int i = b0; i < e0; ++i)
@@ -354,12 +365,10 @@ void gather_self_pairs(SolverArrays& s, double thickness) {
   // Moving vertices against all triangles (those within their reach).
   set_leaves(true, moving_bound, moving_bound);
   collide_trees(s, thickness);
-  if (held > 0) {
-    // Held vertices (those within reach of a moving triangle) against the triangles with a moving
-    // corner.
-    set_leaves(false, active_bound, active_bound);
-    collide_trees(s, thickness);
-  }
+  // Held vertices (those within reach of a moving triangle) against the triangles with a moving
+  // corner.
+  set_leaves(false, active_bound, active_bound);
+  collide_trees(s, thickness);
   s.last_self_pairs = s.self_pairs.size();
 }
 

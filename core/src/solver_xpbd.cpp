@@ -28,8 +28,9 @@ namespace kiji::solver_detail {
 
 namespace {
 
-// The constraints a step solves: the solver's full arrays, or this step's copy of those with a
-// moving vertex (same order, same colour groups).
+// The constraints a step solves: the solver's full arrays, or (when a tenth or more of the live
+// vertices are held) this step's copy of those with a moving vertex (same order, same colour
+// groups).
 struct Constraints {
   const int *e_i, *e_j;
   const double* e_rest;
@@ -64,7 +65,8 @@ Constraints select_constraints(SolverArrays& s) {
     live += s.alive[i];
     if (M[i]) s.act.push_back(static_cast<int>(i));
   }
-  if (s.act.size() == live)
+  // A few held vertices (pins) hold back few constraints: copying would cost more than it saves.
+  if (10 * s.act.size() >= 9 * live)
     return {s.e_i.data(), s.e_j.data(), s.e_rest.data(), &s.e_color, static_cast<int>(s.e_i.size()),
             s.l_i.data(), s.l_j.data(), s.l_rest.data(), &s.l_groups,
             s.bends.data(), &s.b_color, static_cast<int>(s.bends.size())};

@@ -347,27 +347,27 @@ void gather_self_pairs(SolverArrays& s, double thickness) {
     const auto& tri = s.tris[t];
     if (M[tri[0]] || M[tri[1]] || M[tri[2]]) Merge(active_bound, s.tri_box[t], active_bound);
   }
-  auto set_leaves = [&](bool of_moving, const btDbvtVolume& vert_within, const btDbvtVolume& tri_within) {
+  auto set_leaves = [&](bool of_moving, const btDbvtVolume& within) {
     parallel::for_range(static_cast<int>(s.n), 2048, [&](int b0, int e0) {
       for (int i = b0; i < e0; ++i)
         if (s.vert_leaf[i])
           s.vert_leaf[i]->volume =
-              ((M[i] != 0) == of_moving && Intersect(s.vert_box[i], vert_within)) ? s.vert_box[i] : kNothing;
+              ((M[i] != 0) == of_moving && Intersect(s.vert_box[i], within)) ? s.vert_box[i] : kNothing;
     });
     parallel::for_range(static_cast<int>(s.tris.size()), 2048, [&](int b0, int e0) {
       for (int t = b0; t < e0; ++t) {
         const auto& tri = s.tris[t];
         const bool may = of_moving || M[tri[0]] || M[tri[1]] || M[tri[2]];
-        s.tri_leaf[t]->volume = (may && Intersect(s.tri_box[t], tri_within)) ? s.tri_box[t] : kNothing;
+        s.tri_leaf[t]->volume = (may && Intersect(s.tri_box[t], within)) ? s.tri_box[t] : kNothing;
       }
     });
   };
   // Moving vertices against all triangles (those within their reach).
-  set_leaves(true, moving_bound, moving_bound);
+  set_leaves(true, moving_bound);
   collide_trees(s, thickness);
   // Held vertices (those within reach of a moving triangle) against the triangles with a moving
   // corner.
-  set_leaves(false, active_bound, active_bound);
+  set_leaves(false, active_bound);
   collide_trees(s, thickness);
   s.last_self_pairs = s.self_pairs.size();
 }

@@ -57,6 +57,22 @@ void select_groups(const std::vector<int>& offsets, std::vector<int>& out_offset
   }
 }
 
+// The same for constraints between two vertices (i, j, rest): those with a moving end.
+void select_pairs(const std::vector<int>& offsets, const std::vector<int>& i, const std::vector<int>& j,
+                  const std::vector<double>& rest, const unsigned char* moving, std::vector<int>& out_offsets,
+                  std::vector<int>& out_i, std::vector<int>& out_j, std::vector<double>& out_rest) {
+  out_i.clear();
+  out_j.clear();
+  out_rest.clear();
+  select_groups(
+      offsets, out_offsets, [&](int k) { return moving[i[k]] || moving[j[k]]; },
+      [&](int k) {
+        out_i.push_back(i[k]);
+        out_j.push_back(j[k]);
+        out_rest.push_back(rest[k]);
+      });
+}
+
 Constraints select_constraints(SolverArrays& s) {
   const unsigned char* M = s.moving.data();
   s.act.clear();
@@ -70,26 +86,8 @@ Constraints select_constraints(SolverArrays& s) {
     return {s.e_i.data(), s.e_j.data(), s.e_rest.data(), &s.e_color, static_cast<int>(s.e_i.size()),
             s.l_i.data(), s.l_j.data(), s.l_rest.data(), &s.l_groups,
             s.bends.data(), &s.b_color, static_cast<int>(s.bends.size())};
-  s.ae_i.clear();
-  s.ae_j.clear();
-  s.ae_rest.clear();
-  select_groups(
-      s.e_color, s.ae_color, [&](int k) { return M[s.e_i[k]] || M[s.e_j[k]]; },
-      [&](int k) {
-        s.ae_i.push_back(s.e_i[k]);
-        s.ae_j.push_back(s.e_j[k]);
-        s.ae_rest.push_back(s.e_rest[k]);
-      });
-  s.al_i.clear();
-  s.al_j.clear();
-  s.al_rest.clear();
-  select_groups(
-      s.l_groups, s.al_groups, [&](int k) { return M[s.l_i[k]] || M[s.l_j[k]]; },
-      [&](int k) {
-        s.al_i.push_back(s.l_i[k]);
-        s.al_j.push_back(s.l_j[k]);
-        s.al_rest.push_back(s.l_rest[k]);
-      });
+  select_pairs(s.e_color, s.e_i, s.e_j, s.e_rest, M, s.ae_color, s.ae_i, s.ae_j, s.ae_rest);
+  select_pairs(s.l_groups, s.l_i, s.l_j, s.l_rest, M, s.al_groups, s.al_i, s.al_j, s.al_rest);
   s.a_bends.clear();
   select_groups(
       s.b_color, s.ab_color,

@@ -164,6 +164,44 @@ void colour(std::size_t count, std::size_t n, GetVerts verts, std::vector<int>& 
   for (std::size_t c = 0; c < count; ++c) perm[fill[col[c]]++] = static_cast<int>(c);
 }
 
+// The order in which a set of constraints is solved, and its ranges (see SolverArrays): first each
+// block's own constraints (all their vertices in that block), block by block, each in colour
+// order; then the constraints across blocks, coloured among themselves. The blocks are solved
+// in parallel, each by one thread in sequence (no vertex is in two blocks), so a substep meets a
+// barrier between blocks and the rest, not between every two colours, and each block's vertices
+// stay in the core's cache while its constraints are solved. With one block, the constraints
+// within it are solved in sequence; a garment too small for two blocks is too small to share.
+template <int K, typename GetVerts>
+void schedule(std::size_t count, std::size_t n, const std::vector<int>& block, int blocks, GetVerts verts,
+              std::vector<int>& perm, std::vector<int>& offsets, std::vector<unsigned char>& kinds) {
+  std::vector<int> by_colour, colours;
+  colour<K>(count, n, verts, by_colour, colours);
+  std::vector<std::vector<int>> own(blocks);
+  std::vector<int> across;
+  for (int c : by_colour) {
+    const std::array<int, K> vs = verts(c);
+    const int b = block[vs[0]];
+    bool inside = true;
+    for (int k = 1; k < K; ++k) inside = inside && block[vs[k]] == b;
+    (inside ? own[b] : across).push_back(c);
+  }
+  perm.clear();
+  offsets.assign(1, 0);
+  kinds.clear();
+  for (const std::vector<int>& o : own) {
+    perm.insert(perm.end(), o.begin(), o.end());
+    offsets.push_back(static_cast<int>(perm.size()));
+    kinds.push_back(kinds.empty() ? SolverArrays::kFirstBlock : SolverArrays::kBlock);
+  }
+  std::vector<int> across_perm, across_offsets;
+  colour<K>(across.size(), n, [&](std::size_t q) { return verts(across[q]); }, across_perm, across_offsets);
+  for (std::size_t c = 0; c + 1 < across_offsets.size(); ++c) {
+    for (int q = across_offsets[c]; q < across_offsets[c + 1]; ++q) perm.push_back(across[across_perm[q]]);
+    offsets.push_back(static_cast<int>(perm.size()));
+    kinds.push_back(c == 63 ? SolverArrays::kSerial : SolverArrays::kGroup);  // 63: the overflow colour
+  }
+}
+
 // The long-range limits, level by level: anchors at least S edges apart (greedy in Morton
 // order), each joined to the anchors within 2 S edges by the shortest rest-length path.
 void build_long_range(SolverArrays& s) {
@@ -262,23 +300,23 @@ void build_long_range(SolverArrays& s) {
     for (std::size_t k = before; k < li.size(); ++k) idx.push_back(k);
     levels.push_back(idx);
   }
-  // Coarse to fine, each level coloured (its groups solved one after the other, each in parallel).
-  s.l_groups.assign(1, 0);
-  s.l_serial.clear();
+  // Coarse to fine, each level scheduled on its own (its blocks, then the limits across blocks).
+  s.l_ranges.assign(1, 0);
+  s.l_kinds.clear();
   std::vector<int> perm, offsets;
+  std::vector<unsigned char> kinds;
   for (auto it = levels.rbegin(); it != levels.rend(); ++it) {
     const std::vector<std::size_t>& level = *it;
-    colour<2>(level.size(), n, [&](std::size_t c) { return li[level[c]]; }, perm, offsets);
-    for (std::size_t c = 0; c + 1 < offsets.size(); ++c) {
-      for (int q = offsets[c]; q < offsets[c + 1]; ++q) {
-        const std::size_t k = level[perm[q]];
-        s.l_i.push_back(li[k][0]);
-        s.l_j.push_back(li[k][1]);
-        s.l_rest.push_back(lr[k]);
-      }
-      s.l_groups.push_back(static_cast<int>(s.l_i.size()));
-      s.l_serial.push_back(c == 63);  // the colouring's overflow group may share vertices
+    schedule<2>(level.size(), n, s.block, s.blocks, [&](std::size_t c) { return li[level[c]]; }, perm, offsets, kinds);
+    for (int q : perm) {
+      const std::size_t k = level[q];
+      s.l_i.push_back(li[k][0]);
+      s.l_j.push_back(li[k][1]);
+      s.l_rest.push_back(lr[k]);
     }
+    const int base = s.l_ranges.back();
+    for (std::size_t c = 1; c < offsets.size(); ++c) s.l_ranges.push_back(base + offsets[c]);
+    s.l_kinds.insert(s.l_kinds.end(), kinds.begin(), kinds.end());
   }
 }
 
@@ -371,8 +409,16 @@ void rebuild(SolverArrays& s, const Garment& g) {
     ej.push_back(static_cast<int>(m.target(h).idx()));
     eh.push_back(e);
   }
+  // Blocks of about kBlockVertices vertices each, consecutive in the spatial order: compact patches
+  // of the cloth.
+  constexpr int kBlockVertices = 1024;
+  const int live = static_cast<int>(s.order.size());
+  s.blocks = std::clamp(live / kBlockVertices, 1, 64);
+  s.block.assign(n, 0);
+  for (int r = 0; r < live; ++r) s.block[s.order[r]] = static_cast<int>(std::int64_t(r) * s.blocks / live);
   std::vector<int> perm;
-  colour<2>(ei.size(), n, [&](std::size_t c) { return std::array<int, 2>{ei[c], ej[c]}; }, perm, s.e_color);
+  schedule<2>(ei.size(), n, s.block, s.blocks, [&](std::size_t c) { return std::array<int, 2>{ei[c], ej[c]}; }, perm,
+              s.e_ranges, s.e_kinds);
   s.e_i.resize(perm.size());
   s.e_j.resize(perm.size());
   s.e_handle.resize(perm.size());
@@ -411,9 +457,9 @@ void rebuild(SolverArrays& s, const Garment& g) {
                           {sc * (c03 + c04), sc * (c01 + c02), sc * (-c01 - c03), sc * (-c02 - c04)}};
     bends.push_back(bd);
   }
-  colour<4>(bends.size(), n,
-            [&](std::size_t c) { return std::array<int, 4>{bends[c].v[0], bends[c].v[1], bends[c].v[2], bends[c].v[3]}; },
-            perm, s.b_color);
+  schedule<4>(bends.size(), n, s.block, s.blocks,
+              [&](std::size_t c) { return std::array<int, 4>{bends[c].v[0], bends[c].v[1], bends[c].v[2], bends[c].v[3]}; },
+              perm, s.b_ranges, s.b_kinds);
   s.bends.resize(perm.size());
   for (std::size_t k = 0; k < perm.size(); ++k) s.bends[k] = bends[perm[k]];
 

@@ -32,11 +32,25 @@ struct SolverArrays {
   std::vector<double> surprise;       // |end of the last step - its predicted end| (collision margin)
   std::vector<double> surprise_self;  // the same less the cloth's mean miss (self-collision margin)
 
-  // ---- stretch: one distance constraint per edge, sorted by colour ----
+  // ---- how the constraints are ordered and shared between threads ----
+  // The live vertices are cut into blocks of about a thousand, consecutive in the spatial order.
+  // Each set of constraints below is ordered in ranges [ranges[k], ranges[k + 1]) of a kind:
+  //  - kFirstBlock, kBlock: the constraints within one block, solved in sequence by one thread;
+  //    a kFirstBlock range and the kBlock ranges after it (the other blocks) are solved in
+  //    parallel (no vertex is in two blocks);
+  //  - kGroup: constraints across blocks of one colour (no shared vertex), solved in parallel;
+  //  - kSerial: the colouring's overflow (they may share vertices), solved in sequence.
+  // The ranges one after the other: Gauss-Seidel, and the same result whatever the thread count.
+  enum RangeKind : unsigned char { kFirstBlock, kBlock, kGroup, kSerial };
+  int blocks = 1;
+  std::vector<int> block;             // per vertex: its block
+
+  // ---- stretch: one distance constraint per edge ----
   std::vector<int> e_i, e_j;
   std::vector<Edge> e_handle;
   std::vector<double> e_rest;
-  std::vector<int> e_color;           // offsets of colour groups: [e_color[k], e_color[k+1])
+  std::vector<int> e_ranges;
+  std::vector<unsigned char> e_kinds;
 
   // ---- long-range stretch limits (hierarchical, unilateral): |x_i - x_j| <= rest ----
   // Between "anchor" vertices S = 2, 4, 8, ... edges apart, with rest = the shortest rest-length
@@ -45,30 +59,31 @@ struct SolverArrays {
   // sweep, as the coarse levels of hierarchical PBD (Mueller 2008) do.
   std::vector<int> l_i, l_j;
   std::vector<double> l_rest;
-  std::vector<int> l_groups;               // offsets of groups sharing no vertex, coarse to fine
-  std::vector<unsigned char> l_serial;     // per group: may share vertices (solved serially)
+  std::vector<int> l_ranges;               // level by level, coarse to fine
+  std::vector<unsigned char> l_kinds;
 
-  // ---- bending: isometric (quadratic) bending per interior edge, sorted by colour ----
+  // ---- bending: isometric (quadratic) bending per interior edge ----
   struct Bend {
     int v[4];       // edge endpoints a, b and the opposite vertices c, d
     double g[4];    // sqrt(1 / (A0 + A1)) * K_i, the constant gradient weights
   };
   std::vector<Bend> bends;
-  std::vector<int> b_color;
+  std::vector<int> b_ranges;
+  std::vector<unsigned char> b_kinds;
 
   // ---- this step's share of the constraints ----
   // When some live vertices are held this step (pins, the paper's local region), the constraints
-  // with a moving vertex are copied here in the same order and the same colour groups (as many
-  // groups as the full arrays, empty ones included), so that a region of 1,000 moving vertices in
-  // a 20,000-vertex garment costs what 1,000 vertices cost; when every live vertex moves, the full
-  // arrays are used as they are.
+  // with a moving vertex are copied here in the same order and the same ranges (as many ranges as
+  // the full arrays, of the same kinds, empty ones included), so that a region of 1,000 moving
+  // vertices in a 20,000-vertex garment costs what 1,000 vertices cost; when every live vertex
+  // moves, the full arrays are used as they are.
   std::vector<int> act;               // the moving vertices, in index order
-  std::vector<int> ae_i, ae_j, ae_color;
+  std::vector<int> ae_i, ae_j, ae_ranges;
   std::vector<double> ae_rest;
-  std::vector<int> al_i, al_j, al_groups;
+  std::vector<int> al_i, al_j, al_ranges;
   std::vector<double> al_rest;
   std::vector<Bend> a_bends;
-  std::vector<int> ab_color;
+  std::vector<int> ab_ranges;
   std::vector<double> lam_e;          // XPBD multipliers (reset every substep)
   std::vector<Vec3> lam_b;
   std::vector<Vec3> force;            // MassSpring: force per vertex

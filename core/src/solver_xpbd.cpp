@@ -14,8 +14,8 @@
 //  - pins (inverse mass 0), gravity, external forces;
 //  - body collision with the thickness and Coulomb friction, continuous (see solver_collide.cpp);
 //  - self-collision: vertex against cloth triangle at the thickness.
-// Constraints of one colour share no vertex (graph colouring in rebuild), so each colour can be
-// projected in parallel later; serially they are visited colour by colour.
+// The constraints are solved in the ranges rebuild ordered them in (see SolverArrays): the blocks
+// of the cloth in parallel, each in sequence, then the constraints across blocks colour by colour.
 #include "parallel.h"
 #include "solver_state.h"
 
@@ -29,23 +29,22 @@ namespace kiji::solver_detail {
 namespace {
 
 // The constraints a step solves: the solver's full arrays, or (when a tenth or more of the live
-// vertices are held) this step's copy of those with a moving vertex (same order, same colour
-// groups).
+// vertices are held) this step's copy of those with a moving vertex (same order, same ranges).
 struct Constraints {
   const int *e_i, *e_j;
   const double* e_rest;
-  const std::vector<int>* e_color;
+  const std::vector<int>* e_ranges;
   int ne;
   const int *l_i, *l_j;
   const double* l_rest;
-  const std::vector<int>* l_groups;
+  const std::vector<int>* l_ranges;
   const SolverArrays::Bend* bends;
-  const std::vector<int>* b_color;
+  const std::vector<int>* b_ranges;
   int nb;
 };
 
-// Copies of the groups [offsets[c], offsets[c + 1]) keeping what `keep` says, with the same number
-// of groups (the overflow group keeps its index).
+// Copies of the ranges [offsets[c], offsets[c + 1]) keeping what `keep` says, with the same number
+// of ranges (each keeps its index, and so its kind).
 template <typename Keep, typename Copy>
 void select_groups(const std::vector<int>& offsets, std::vector<int>& out_offsets, Keep keep, Copy copy) {
   out_offsets.assign(1, 0);
@@ -83,22 +82,50 @@ Constraints select_constraints(SolverArrays& s) {
   }
   // A few held vertices (pins) hold back few constraints: copying would cost more than it saves.
   if (10 * s.act.size() >= 9 * live)
-    return {s.e_i.data(), s.e_j.data(), s.e_rest.data(), &s.e_color, static_cast<int>(s.e_i.size()),
-            s.l_i.data(), s.l_j.data(), s.l_rest.data(), &s.l_groups,
-            s.bends.data(), &s.b_color, static_cast<int>(s.bends.size())};
-  select_pairs(s.e_color, s.e_i, s.e_j, s.e_rest, M, s.ae_color, s.ae_i, s.ae_j, s.ae_rest);
-  select_pairs(s.l_groups, s.l_i, s.l_j, s.l_rest, M, s.al_groups, s.al_i, s.al_j, s.al_rest);
+    return {s.e_i.data(), s.e_j.data(), s.e_rest.data(), &s.e_ranges, static_cast<int>(s.e_i.size()),
+            s.l_i.data(), s.l_j.data(), s.l_rest.data(), &s.l_ranges,
+            s.bends.data(), &s.b_ranges, static_cast<int>(s.bends.size())};
+  select_pairs(s.e_ranges, s.e_i, s.e_j, s.e_rest, M, s.ae_ranges, s.ae_i, s.ae_j, s.ae_rest);
+  select_pairs(s.l_ranges, s.l_i, s.l_j, s.l_rest, M, s.al_ranges, s.al_i, s.al_j, s.al_rest);
   s.a_bends.clear();
   select_groups(
-      s.b_color, s.ab_color,
+      s.b_ranges, s.ab_ranges,
       [&](int k) {
         const int* v = s.bends[k].v;
         return M[v[0]] || M[v[1]] || M[v[2]] || M[v[3]];
       },
       [&](int k) { s.a_bends.push_back(s.bends[k]); });
-  return {s.ae_i.data(), s.ae_j.data(), s.ae_rest.data(), &s.ae_color, static_cast<int>(s.ae_i.size()),
-          s.al_i.data(), s.al_j.data(), s.al_rest.data(), &s.al_groups,
-          s.a_bends.data(), &s.ab_color, static_cast<int>(s.a_bends.size())};
+  return {s.ae_i.data(), s.ae_j.data(), s.ae_rest.data(), &s.ae_ranges, static_cast<int>(s.ae_i.size()),
+          s.al_i.data(), s.al_j.data(), s.al_rest.data(), &s.al_ranges,
+          s.a_bends.data(), &s.ab_ranges, static_cast<int>(s.a_bends.size())};
+}
+
+constexpr int kVertexGrain = 2048, kConstraintGrain = 256, kContactGrain = 256;
+
+// Runs f(begin, end) over the ranges [offsets[k], offsets[k + 1]) one after the other, each as its
+// kind says (see SolverArrays): a run of blocks together in parallel, each block in sequence; a
+// colour group in parallel pieces; the overflow group in sequence.
+template <typename F>
+void run_ranges(const std::vector<int>& offsets, const std::vector<unsigned char>& kinds, F& f) {
+  const int ranges = static_cast<int>(offsets.size()) - 1;
+  for (int k = 0; k < ranges;) {
+    const int b = offsets[k], e = offsets[k + 1];
+    if (kinds[k] == SolverArrays::kFirstBlock) {
+      int last = k + 1;
+      while (last < ranges && kinds[last] == SolverArrays::kBlock) ++last;
+      const int first = k;
+      parallel::for_range(last - first, 1, [&](int lo, int hi) {
+        for (int q = first + lo; q < first + hi; ++q) f(offsets[q], offsets[q + 1]);
+      });
+      k = last;
+      continue;
+    }
+    if (kinds[k] == SolverArrays::kSerial)
+      f(b, e);
+    else
+      parallel::for_range(e - b, kConstraintGrain, [&](int lo, int hi) { f(b + lo, b + hi); });
+    ++k;
+  }
 }
 
 // Projects every edge beyond (1 +- limit) x rest back to the limit (Provot 1995): Gauss-Seidel
@@ -132,9 +159,9 @@ void limit_strain(SolverArrays& s, const Constraints& cs, double limit) {
     s.over.clear();
     for (const std::vector<int>& out : s.over_pieces) s.over.insert(s.over.end(), out.begin(), out.end());
     if (s.over.empty()) return;
-    // The offending edges are in edge order, which is colour order: each colour's run shares no
-    // vertex and is projected in parallel (the same result as one thread, in any order); the
-    // colouring's overflow group (colour 63) serially.
+    // The offending edges are in edge order: they fall in the edges' ranges, and each range's run
+    // is projected as the range is (blocks in parallel, each in sequence; colour groups in
+    // parallel; the overflow in sequence): the same result as one thread.
     auto project = [&](int b, int e) {
       for (int q = b; q < e; ++q) {
         const int k = s.over[q];
@@ -153,45 +180,12 @@ void limit_strain(SolverArrays& s, const Constraints& cs, double limit) {
         X[j] -= wj * corr;
       }
     };
-    const std::vector<int>& colours = *cs.e_color;
-    const int groups = static_cast<int>(colours.size()) - 1;
+    const std::vector<int>& ranges = *cs.e_ranges;
     s.over_runs.assign(1, 0);
-    for (int c = 0; c < groups; ++c)
+    for (std::size_t c = 0; c + 1 < ranges.size(); ++c)
       s.over_runs.push_back(static_cast<int>(
-          std::lower_bound(s.over.begin() + s.over_runs.back(), s.over.end(), colours[c + 1]) - s.over.begin()));
-    if (groups < 1) s.over_runs.push_back(static_cast<int>(s.over.size()));
-    for (int pass = 0; pass < kPasses; ++pass) {
-      for (std::size_t c = 0; c + 1 < s.over_runs.size(); ++c) {
-        const int b = s.over_runs[c], e = s.over_runs[c + 1];
-        if (c == 63 || groups < 1)
-          project(b, e);
-        else
-          parallel::for_range(e - b, 512, [&](int lo_, int hi_) { project(b + lo_, b + hi_); });
-      }
-    }
-  }
-}
-
-constexpr int kVertexGrain = 2048, kConstraintGrain = 1024, kContactGrain = 256;
-
-// Runs f(begin, end) over the constraints [0, count), colour group by colour group (offsets[c] ..
-// offsets[c + 1]): the groups one after the other (Gauss-Seidel between colours), each group's
-// constraints in parallel, since no two of them share a vertex. The overflow group of the
-// colouring (colour 63, whose constraints may share vertices) runs serially.
-template <typename F>
-void by_colour(const std::vector<int>& offsets, int count, F& f) {
-  if (offsets.size() < 2) {
-    f(0, count);
-    return;
-  }
-  const int groups = static_cast<int>(offsets.size()) - 1;
-  for (int c = 0; c < groups; ++c) {
-    const int b = offsets[c], e = offsets[c + 1];
-    if (c == 63) {
-      f(b, e);
-      continue;
-    }
-    parallel::for_range(e - b, kConstraintGrain, [&](int lo, int hi) { f(b + lo, b + hi); });
+          std::lower_bound(s.over.begin() + s.over_runs.back(), s.over.end(), ranges[c + 1]) - s.over.begin()));
+    for (int pass = 0; pass < kPasses; ++pass) run_ranges(s.over_runs, s.e_kinds, project);
   }
 }
 
@@ -267,14 +261,7 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
           X[j] -= W[j] * corr;
         }
       };
-      const std::vector<int>& groups = *cs.l_groups;
-      for (std::size_t c = 0; c + 1 < groups.size(); ++c) {  // coarse to fine
-        const int b = groups[c], e = groups[c + 1];
-        if (s.l_serial[c])
-          limits(b, e);
-        else
-          parallel::for_range(e - b, kConstraintGrain, [&](int lo, int hi) { limits(b + lo, b + hi); });
-      }
+      run_ranges(*cs.l_ranges, s.l_kinds, limits);  // coarse to fine
       auto stretch = [&](int b, int e) {
         for (int k = b; k < e; ++k) {
           const int i = cs.e_i[k], j = cs.e_j[k];
@@ -291,7 +278,7 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
           X[j] -= W[j] * corr;
         }
       };
-      by_colour(*cs.e_color, ne, stretch);
+      run_ranges(*cs.e_ranges, s.e_kinds, stretch);
       if (bending) {
         auto bend = [&](int first, int last) {
           for (int k = first; k < last; ++k) {
@@ -309,7 +296,7 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
             X[b.v[3]] += (w3 * b.g[3]) * dl;
           }
         };
-        by_colour(*cs.b_color, nb, bend);
+        run_ranges(*cs.b_ranges, s.b_kinds, bend);
       }
     }
     // Tacks: zero-length, as stiff as the cloth, but closing by at most half the thickness a

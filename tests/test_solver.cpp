@@ -117,8 +117,10 @@ TEST(Xpbd, ClothDroppedOnASphereRestsOnItWithoutPenetrating) {
 }
 
 TEST(Xpbd, ClothThrownFastAtTheBodyDoesNotTunnel) {
-  // 5 m/s (a fast hand) and 10 m/s against a sphere, no gravity: the cloth stops on the near side.
-  for (double speed : {5.0, 10.0}) {
+  // 5 m/s (a fast hand), 10 m/s and 30 m/s (a flick of the pen: half a metre a step) against a
+  // sphere, no gravity: the cloth stops on the near side. Beyond 6 m/s a vertex keeps no body
+  // candidates for the step and is tested against what each substep's motion meets.
+  for (double speed : {5.0, 10.0, 30.0}) {
     const Vec3 centre(0, 1.0, 0);
     const double R = 0.2;
     const Body sphere = test::make_sphere(R, centre, 3);

@@ -116,8 +116,9 @@ struct SolverArrays {
   Box3 body_bounds;
   std::vector<int> cand_start, cand_count, cand;  // per vertex: candidate body triangles
   std::vector<int> contact_verts;                 // vertices with at least one candidate
-  std::vector<Box3> box;                          // per vertex: the box its candidates cover
+  std::vector<Box3> box;                          // per vertex: the box its candidates cover (empty: too fast to keep any)
   std::vector<unsigned char> escaped;             // left its box during a substep
+  std::vector<int> escapees;                      // those vertices, in index order
   struct Gather {                                 // one piece of the parallel gathering
     std::vector<int> cand, verts, scratch;
   };
@@ -154,8 +155,9 @@ void gather_body_candidates(SolverArrays& s, const BodyCollider& collider, doubl
 void resolve_body(SolverArrays& s, int i, double thickness, double friction);
 void resolve_body_against(SolverArrays& s, int i, double thickness, double friction, const int* tris, int count);
 // Vertices that constraint corrections carried out of the box their candidates were gathered for
-// (a seam closing, the strain limit, a hand): resolved against the body triangles along their
-// actual motion in this substep, so they cannot pass through a triangle that was not a candidate.
+// (a seam closing, the strain limit, a hand), and those too fast to keep candidates: resolved
+// against the body triangles along their actual motion in this substep, so they cannot pass
+// through a triangle that was not a candidate.
 void resolve_escaped(SolverArrays& s, const BodyCollider& collider, double thickness, double friction);
 void gather_self_pairs(SolverArrays& s, double thickness);
 void resolve_self(SolverArrays& s, double thickness);

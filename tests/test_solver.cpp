@@ -281,6 +281,30 @@ TEST(Xpbd, TheLocalRegionCollidesWithTheClothAroundIt) {
   }
 }
 
+TEST(Xpbd, VerticesHeldByTheLocalRegionResumeFromRest) {
+  // A falling cloth (1 m/s down) meets a local region around one corner: the rest is held still,
+  // and when the region is gone (the tool let go) it falls from rest under gravity, not on at the
+  // 1 m/s it had before it was held.
+  Garment g = make_rectangle(1.0, 1.0, 21, 21);
+  lay_flat(g, Vec3(0, 1.0, 0));
+  for (Vertex v : g.mesh().vertices()) g.velocity(v) = Vec3(0, -1.0, 0);
+  SolverParams p;
+  p.body_collision = false;
+  p.local_radius = 0.2;
+  p.local_center = g.position(Vertex(0));
+  Solver solver(p);
+  const Vertex far(21 * 21 - 1);  // the opposite corner: outside the region
+  const Vec3 held = g.position(far);
+  solver.step(g, 1.0 / 60);
+  EXPECT_EQ(g.position(far), held);
+  EXPECT_EQ(g.velocity(far), Vec3::Zero()) << "held still, it has no velocity";
+  EXPECT_LT(g.velocity(Vertex(0)).y(), -1.0) << "inside the region it falls on";
+  p.local_radius = 0;
+  solver.set_params(p);
+  solver.step(g, 1.0 / 60);
+  EXPECT_NEAR(g.velocity(far).y(), -9.81 / 60, 0.05) << "one step of gravity from rest";
+}
+
 TEST(Xpbd, InvalidInputsThrowAndChangeNothing) {
   Garment g = make_rectangle(0.2, 0.2, 5, 5);
   const Garment before = g;

@@ -608,10 +608,16 @@ void Solver::step(Garment& garment, double dt) {
     }
   }
   for (std::size_t i = 0; i < n; ++i) {
-    if (!s.moving[i]) continue;
+    if (!s.alive[i]) continue;
     const Vertex v = vtx(static_cast<int>(i));
-    garment.set_position(v, s.x[i]);
-    garment.velocity(v) = s.v[i];
+    if (s.moving[i]) {
+      garment.set_position(v, s.x[i]);
+      garment.velocity(v) = s.v[i];
+    } else if (local) {
+      // Held still by the local region this step: it has no motion to resume with when the region
+      // moves on or the tool lets go.
+      garment.velocity(v) = Vec3::Zero();
+    }
   }
 }
 

@@ -40,7 +40,8 @@ struct SolverParams {
   double spring_k = 100.0;
   double spring_damping = 0.0;
   // The paper's local region: when radius > 0, only vertices within `local_radius` of
-  // `local_center` are computed; the others are left exactly as they are.
+  // `local_center` are computed; the others are held exactly where they are, still (velocity
+  // zero), and fall or move on from rest when the region leaves them.
   double local_radius = 0.0;
   Vec3 local_center{0.0, 0.0, 0.0};
 

@@ -192,9 +192,9 @@ void resolve_escaped(SolverArrays& s, const BodyCollider& collider, double th, d
   s.escapees.clear();
   for (int i : s.act)
     if (s.escaped[i]) s.escapees.push_back(i);
-  // Each moves only its own vertex: in parallel, each piece with its own list of triangles.
+  // Each moves only its own vertex: in parallel, each thread with its own list of triangles.
   parallel::for_range(static_cast<int>(s.escapees.size()), 64, [&](int b0, int e0) {
-    std::vector<int> tris;
+    thread_local std::vector<int> tris;
     for (int k = b0; k < e0; ++k) {
       const int i = s.escapees[k];
       Box3 b(s.xp[i].cwiseMin(s.x[i]), s.xp[i].cwiseMax(s.x[i]));

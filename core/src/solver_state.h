@@ -116,7 +116,8 @@ struct SolverArrays {
   Box3 body_bounds;
   std::vector<int> cand_start, cand_count, cand;  // per vertex: candidate body triangles
   std::vector<int> contact_verts;                 // vertices with at least one candidate
-  std::vector<Box3> box;                          // per vertex: the box its candidates cover (empty: too fast to keep any)
+  std::vector<Box3> box;                          // per vertex: the box its candidates cover
+                                                  // (empty: too fast to keep any)
   std::vector<unsigned char> escaped;             // left its box during a substep
   std::vector<int> escapees;                      // those vertices, in index order
   struct Gather {                                 // one piece of the parallel gathering

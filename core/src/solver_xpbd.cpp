@@ -46,7 +46,7 @@ struct Constraints {
 // Copies of the ranges [offsets[c], offsets[c + 1]) keeping what `keep` says, with the same number
 // of ranges (each keeps its index, and so its kind).
 template <typename Keep, typename Copy>
-void select_groups(const std::vector<int>& offsets, std::vector<int>& out_offsets, Keep keep, Copy copy) {
+void select_ranges(const std::vector<int>& offsets, std::vector<int>& out_offsets, Keep keep, Copy copy) {
   out_offsets.assign(1, 0);
   int kept = 0;
   for (std::size_t c = 0; c + 1 < offsets.size(); ++c) {
@@ -63,7 +63,7 @@ void select_pairs(const std::vector<int>& offsets, const std::vector<int>& i, co
   out_i.clear();
   out_j.clear();
   out_rest.clear();
-  select_groups(
+  select_ranges(
       offsets, out_offsets, [&](int k) { return moving[i[k]] || moving[j[k]]; },
       [&](int k) {
         out_i.push_back(i[k]);
@@ -88,7 +88,7 @@ Constraints select_constraints(SolverArrays& s) {
   select_pairs(s.e_ranges, s.e_i, s.e_j, s.e_rest, M, s.ae_ranges, s.ae_i, s.ae_j, s.ae_rest);
   select_pairs(s.l_ranges, s.l_i, s.l_j, s.l_rest, M, s.al_ranges, s.al_i, s.al_j, s.al_rest);
   s.a_bends.clear();
-  select_groups(
+  select_ranges(
       s.b_ranges, s.ab_ranges,
       [&](int k) {
         const int* v = s.bends[k].v;

@@ -82,6 +82,10 @@ void SolverParams::validate() const {
   require(std::isfinite(local_radius) && local_radius >= 0, "local_radius", local_radius,
           "zero (no local region) or a positive finite radius in metres");
   require(all_finite(local_center), "local_center", vec_text(local_center), "a finite point");
+  require(std::isfinite(sleep_after) && sleep_after >= 0, "sleep_after", sleep_after,
+          "zero (never sleep) or a positive finite time in seconds");
+  require(std::isfinite(sleep_distance) && sleep_distance > 0 && sleep_distance < 1, "sleep_distance", sleep_distance,
+          "a positive distance in metres, under 1 (cloth moving less than this is at rest)");
 }
 
 Solver::Solver(SolverParams params) : state_(std::make_unique<State>()) {
@@ -523,6 +527,7 @@ void rebuild(SolverArrays& s, const Garment& g) {
   s.cand.clear();
   s.contact_verts.clear();
   s.self_pairs.clear();
+  s.sleep_ready = false;  // everything awake
   s.built = true;
 }
 
@@ -563,6 +568,11 @@ void Solver::step(Garment& garment, double dt) {
   const bool mass_spring = params_.model == SolverModel::MassSpring;
   const bool local = params_.local_radius > 0;
   const double r2 = params_.local_radius * params_.local_radius;
+  // Sleeping blocks that anything has disturbed since the last step: an edit of a vertex (its
+  // position, velocity or pin) or of a rest length, a hand, a force, an open seam.
+  const bool sleeping = params_.sleep_after > 0 && s.sleep_ready;
+  s.im.resize(n, 0.0);
+  std::vector<unsigned char> disturbed(s.blocks, 0);
   for (std::size_t i = 0; i < n; ++i) {
     if (!s.alive[i]) {
       s.moving[i] = 0;
@@ -574,13 +584,23 @@ void Solver::step(Garment& garment, double dt) {
     s.v[i] = garment.velocity(v);
     s.fext[i].setZero();
     const double im = garment.inverse_mass(v);
+    if (sleeping && s.asleep[s.block[i]] && (s.x[i] != s.anchor[i] || s.v[i] != Vec3::Zero() || im != s.im[i]))
+      disturbed[s.block[i]] = 1;
+    s.im[i] = im;
     bool in = im > 0;
     if (local && (s.x[i] - params_.local_center).squaredNorm() > r2) in = false;
     s.moving[i] = in;
     s.w[i] = in ? (mass_spring ? 1.0 : im) : 0.0;
   }
-  for (std::size_t k = 0; k < s.e_handle.size(); ++k) s.e_rest[k] = garment.rest_length(s.e_handle[k]);
-  for (const auto& f : forces_) s.fext[f.vertex.idx()] += f.force;
+  for (std::size_t k = 0; k < s.e_handle.size(); ++k) {
+    const double rest = garment.rest_length(s.e_handle[k]);
+    if (rest != s.e_rest[k]) disturbed[s.block[s.e_i[k]]] = disturbed[s.block[s.e_j[k]]] = 1;
+    s.e_rest[k] = rest;
+  }
+  for (const auto& f : forces_) {
+    s.fext[f.vertex.idx()] += f.force;
+    disturbed[s.block[f.vertex.idx()]] = 1;
+  }
   forces_.clear();
   // Hands on the cloth (dropping those whose vertex is gone) and tacks.
   attachments_.erase(std::remove_if(attachments_.begin(), attachments_.end(),
@@ -592,6 +612,11 @@ void Solver::step(Garment& garment, double dt) {
   for (const auto& [a, b] : garment.tacks)
     if (a.idx() < n && b.idx() < n && s.alive[a.idx()] && s.alive[b.idx()])
       s.tacks.push_back({static_cast<int>(a.idx()), static_cast<int>(b.idx())});
+  for (const auto& a : s.attach) disturbed[s.block[a.i]] = 1;
+  for (const auto& [a, b] : s.tacks)
+    if ((s.x[a] - s.x[b]).squaredNorm() > params_.sleep_distance * params_.sleep_distance)
+      disturbed[s.block[a]] = disturbed[s.block[b]] = 1;
+  solver_detail::sleep_before_step(s, params_, mat, disturbed);
 
   const BodyCollider* body = (params_.body_collision && collider_) ? collider_.get() : nullptr;
   if (mass_spring)
@@ -607,6 +632,7 @@ void Solver::step(Garment& garment, double dt) {
                        ": lower dt or spring_k, or raise substeps; the garment was left as it was");
     }
   }
+  solver_detail::sleep_after_step(s, params_, dt);
   for (std::size_t i = 0; i < n; ++i) {
     if (!s.alive[i]) continue;
     const Vertex v = vtx(static_cast<int>(i));
@@ -660,6 +686,7 @@ ClothMeasures Solver::measure(const Garment& garment) const {
   }
   r.mean_strain = ne ? sum / ne : 0.0;
   r.kinetic_energy = garment.kinetic_energy();
+  if (state_->garment == &garment && state_->sleep_ready) r.sleeping = state_->sleeping;
   if (collider_) {
     const double th = garment.material().thickness;
     const double radius = std::max(0.05, 10 * th);

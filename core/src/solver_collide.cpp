@@ -57,6 +57,7 @@ void refit(btDbvtNode* node) {
 
 void set_body(SolverArrays& s, const Body* body) {
   s.body = body;
+  s.sleep_ready = false;  // a new body: everything wakes
   s.body_tris.clear();
   s.body_boxes.clear();
   s.body_bounds.setEmpty();

@@ -140,6 +140,19 @@ struct SolverArrays {
   // and up to now (path + this substep's motion + the self-collision pushes it has had).
   std::vector<double> path, reach;  // one list per vertex subtree, joined in order
 
+  // ---- sleeping (see SolverParams::sleep_after), reset to all awake by rebuild ----
+  bool sleep_ready = false;
+  std::vector<int> block_start, block_verts;  // CSR: each block's live vertices
+  std::vector<std::uint64_t> block_nbrs;      // per block: the blocks it shares an edge with (<= 64)
+  std::vector<unsigned char> asleep;          // per block
+  std::vector<unsigned char> hold_awake;      // per block: a hand, force or open seam on it this step
+  std::vector<double> calm;                   // per block: seconds its vertices stayed near their anchors
+  std::vector<Vec3> anchor;                   // per vertex: where its block's calm began, or where it sleeps
+  std::vector<double> im;                     // per vertex: the garment's inverse mass at the last step
+  std::vector<double> settle_disp;            // per block: the farthest a vertex is from its anchor
+  std::array<double, 15> physics{};           // what the motion depends on, to wake all when it changes
+  std::size_t sleeping = 0;                   // vertices asleep
+
   // ---- diagnostics of the last step ----
   std::size_t last_body_candidates = 0;
   std::size_t last_self_pairs = 0;
@@ -162,6 +175,12 @@ void resolve_body_against(SolverArrays& s, int i, double thickness, double frict
 void resolve_escaped(SolverArrays& s, const BodyCollider& collider, double thickness, double friction);
 void gather_self_pairs(SolverArrays& s, double thickness);
 void resolve_self(SolverArrays& s, double thickness);
+// Sleeping (solver_sleep.cpp). Before a step, after the mesh is mirrored: wakes every block when the
+// physics changed or the arrays were rebuilt, and the blocks that `disturbed` marks; then clears
+// `moving` of the vertices asleep. After the step: wakes the sleeping neighbours of cloth that moved,
+// and puts to sleep the blocks calm long enough (their velocities set to zero).
+void sleep_before_step(SolverArrays& s, const SolverParams& p, const Material& m, const std::vector<unsigned char>& disturbed);
+void sleep_after_step(SolverArrays& s, const SolverParams& p, double dt);
 }  // namespace solver_detail
 
 }  // namespace kiji

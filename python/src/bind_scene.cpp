@@ -105,6 +105,9 @@ void bind_scene(py::module_& m) {
       .def_readwrite("spring_k", &SolverParams::spring_k)
       .def_readwrite("spring_damping", &SolverParams::spring_damping)
       .def_readwrite("local_radius", &SolverParams::local_radius)
+      .def_readwrite("sleep_after", &SolverParams::sleep_after,
+                     "seconds a patch of cloth stays within sleep_distance before it sleeps (0: never)")
+      .def_readwrite("sleep_distance", &SolverParams::sleep_distance, "m")
       .def_property(
           "local_center", [](const SolverParams& p) { return vec3_array(p.local_center); },
           [](SolverParams& p, py::handle v) { p.local_center = to_vec3(v, "local_center"); })
@@ -121,6 +124,7 @@ void bind_scene(py::module_& m) {
       .def_readonly("kinetic_energy", &ClothMeasures::kinetic_energy, "J")
       .def_readonly("contacts", &ClothMeasures::contacts, "vertices within 1.5 thicknesses of the body")
       .def_readonly("vertices", &ClothMeasures::vertices)
+      .def_readonly("sleeping", &ClothMeasures::sleeping, "vertices at rest and not computed (see SolverParams.sleep_after)")
       .def("__repr__", [](const ClothMeasures& c) {
         return "ClothMeasures(max_penetration=" + std::to_string(c.max_penetration) +
                ", max_strain=" + std::to_string(c.max_strain) + ", contacts=" + std::to_string(c.contacts) + ")";

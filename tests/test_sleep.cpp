@@ -1,0 +1,172 @@
+// Sleeping: cloth at rest is held still and not computed, and wakes whenever something disturbs it.
+#include "kiji/error.h"
+#include "kiji/pattern.h"
+#include "kiji/solver.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+using namespace kiji;
+
+namespace {
+
+// A floor 4 m square at y = 0, facing up.
+Body floor_body() {
+  return Body::from_triangles({{-2, 0, -2}, {2, 0, -2}, {2, 0, 2}, {-2, 0, 2}}, {{{0, 2, 1}}, {{0, 3, 2}}}, "floor");
+}
+
+// A cloth 1 m square of 65 x 65 vertices (four blocks of about a thousand) lying flat on the floor
+// at its thickness: at rest from the first step.
+Garment cloth_on_floor() {
+  Garment g = make_rectangle(1.0, 1.0, 65, 65);
+  const double th = g.material().thickness;
+  for (Vertex v : g.mesh().vertices()) {
+    const Vec3 q = g.position(v);
+    g.set_position(v, Vec3(q.x() - 0.5, th, -q.y() + 0.5));
+  }
+  return g;
+}
+
+void run(Solver& s, Garment& g, int steps) {
+  for (int i = 0; i < steps; ++i) s.step(g, 1.0 / 60);
+}
+
+// The largest distance between the same vertex in two garments.
+double largest_gap(const Garment& a, const Garment& b) {
+  double gap = 0;
+  for (Vertex v : a.mesh().vertices()) gap = std::max(gap, (a.position(v) - b.position(v)).norm());
+  return gap;
+}
+
+}  // namespace
+
+TEST(Sleep, ClothAtRestFallsAsleepAndStaysExactlyWhereItIs) {
+  const Body floor = floor_body();
+  Garment g = cloth_on_floor();
+  Solver solver;
+  solver.set_body(&floor);
+  run(solver, g, 20);
+  EXPECT_EQ(solver.measure(g).sleeping, 0u) << "asleep before it was calm for sleep_after (0.5 s)";
+  run(solver, g, 40);
+  ASSERT_EQ(solver.measure(g).sleeping, g.mesh().number_of_vertices()) << "at rest on the floor for 1 s";
+  const Garment before = g;
+  run(solver, g, 30);
+  EXPECT_EQ(largest_gap(g, before), 0.0) << "a sleeping cloth does not move at all";
+  for (Vertex v : g.mesh().vertices()) ASSERT_EQ(g.velocity(v), Vec3::Zero());
+
+  // Turned off, nothing sleeps.
+  Garment h = cloth_on_floor();
+  SolverParams p;
+  p.sleep_after = 0;
+  Solver awake(p);
+  awake.set_body(&floor);
+  run(awake, h, 90);
+  EXPECT_EQ(awake.measure(h).sleeping, 0u);
+}
+
+TEST(Sleep, HandsWakeTheClothAndTheClothTheyPullFollowsAsIfAwake) {
+  // A sleeping cloth is lifted 0.3 m by one edge (a hand on each vertex of it) over a second. The
+  // hands' blocks wake at once and the rest as the pull reaches them: the cloth ends as a cloth
+  // that never slept does.
+  const Body floor = floor_body();
+  Garment asleep = cloth_on_floor(), never = cloth_on_floor();
+  SolverParams off;
+  off.sleep_after = 0;
+  Solver s1, s2(off);
+  s1.set_body(&floor);
+  s2.set_body(&floor);
+  run(s1, asleep, 60);
+  run(s2, never, 60);
+  ASSERT_EQ(s1.measure(asleep).sleeping, asleep.mesh().number_of_vertices());
+  std::vector<int> h1, h2;
+  for (int k = 0; k < 65; ++k) {  // the first row: the edge at z = +0.5
+    h1.push_back(s1.add_attachment(Vertex(k), asleep.position(Vertex(k)), 50.0));
+    h2.push_back(s2.add_attachment(Vertex(k), never.position(Vertex(k)), 50.0));
+  }
+  const Vec3 start = asleep.position(Vertex(0));
+  for (int i = 1; i <= 60; ++i) {
+    for (int k = 0; k < 65; ++k) {
+      const Vec3 target(start.x() + k / 64.0, start.y() + 0.3 * i / 60.0, start.z());
+      s1.move_attachment(h1[k], target);
+      s2.move_attachment(h2[k], target);
+    }
+    s1.step(asleep, 1.0 / 60);
+    s2.step(never, 1.0 / 60);
+  }
+  const Vertex far(65 * 64);  // the opposite edge
+  EXPECT_GT(asleep.position(Vertex(32)).y(), 0.25) << "the lifted edge";
+  EXPECT_LT(asleep.position(far).z() - never.position(far).z(), 0.01);
+  EXPECT_LT(largest_gap(asleep, never), 0.01) << "every vertex within 1 cm of where a cloth that never slept is";
+  EXPECT_LT(s1.measure(asleep).max_strain, s2.measure(never).max_strain + 0.02) << "sleeping cloth held nothing back";
+}
+
+TEST(Sleep, AnEditOfASleepingVertexWakesItsCloth) {
+  // A script lifts one vertex of a sleeping cloth 5 cm: it falls back, it is not left floating.
+  const Body floor = floor_body();
+  Garment g = cloth_on_floor();
+  Solver solver;
+  solver.set_body(&floor);
+  run(solver, g, 60);
+  ASSERT_EQ(solver.measure(g).sleeping, g.mesh().number_of_vertices());
+  const Vertex v(65 * 32 + 32);  // the middle
+  g.set_position(v, g.position(v) + Vec3(0, 0.05, 0));
+  solver.step(g, 1.0 / 60);
+  EXPECT_LT(g.position(v).y(), 0.05) << "it fell (or was pulled back by its edges)";
+  EXPECT_LT(solver.measure(g).sleeping, g.mesh().number_of_vertices());
+  run(solver, g, 30);
+  EXPECT_LT(g.position(v).y(), 0.01) << "back on the floor";
+
+  // Pinning a vertex of a sleeping cloth and moving it (the sew tool's drag) wakes it the same way.
+  run(solver, g, 60);
+  ASSERT_EQ(solver.measure(g).sleeping, g.mesh().number_of_vertices());
+  const Vertex c(0);
+  g.set_pinned(c, true);
+  g.set_position(c, g.position(c) + Vec3(0, 0.1, 0));
+  run(solver, g, 10);
+  const Vertex next(1);
+  EXPECT_GT(g.position(next).y(), 0.02) << "its neighbour is pulled up after it";
+}
+
+TEST(Sleep, NewPhysicsWakesEverything) {
+  // Gravity turned sideways under a sleeping cloth (as a changed material or body would): it all
+  // wakes and moves.
+  const Body floor = floor_body();
+  Garment g = cloth_on_floor();
+  Solver solver;
+  solver.set_body(&floor);
+  run(solver, g, 60);
+  ASSERT_EQ(solver.measure(g).sleeping, g.mesh().number_of_vertices());
+  SolverParams p = solver.params();
+  p.gravity = Vec3(9.81, 0, 0);
+  solver.set_params(p);
+  const Garment before = g;
+  run(solver, g, 10);
+  EXPECT_EQ(solver.measure(g).sleeping, 0u);
+  for (Vertex v : g.mesh().vertices()) ASSERT_GT(g.position(v).x(), before.position(v).x() + 0.01);
+}
+
+TEST(Sleep, ParametersOutOfRangeAreRefusedByName) {
+  for (double bad : {-1.0, std::nan(""), double(INFINITY)}) {
+    SolverParams p;
+    p.sleep_after = bad;
+    try {
+      Solver s(p);
+      FAIL() << "sleep_after = " << bad << " was accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("sleep_after"), std::string::npos) << e.what();
+    }
+  }
+  for (double bad : {0.0, -0.001, 2.0, std::nan("")}) {
+    SolverParams p;
+    p.sleep_distance = bad;
+    try {
+      Solver s(p);
+      FAIL() << "sleep_distance = " << bad << " was accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("sleep_distance"), std::string::npos) << e.what();
+    }
+  }
+}

@@ -161,6 +161,35 @@ def test_drape_on_a_body_rests_on_it():
     assert s.time == pytest.approx(1.0)
 
 
+def test_cloth_at_rest_sleeps_and_a_script_edit_wakes_it():
+    # A cloth lying on a floor: at rest, it falls asleep (no longer computed) and stays exactly put;
+    # a vertex lifted by the script falls back instead of floating where it was left.
+    floor = kiji.Body.from_triangles(np.array([[-2, 0, -2], [2, 0, -2], [2, 0, 2], [-2, 0, 2]], float),
+                                      np.array([[0, 2, 1], [0, 3, 2]]), name="floor")
+    g = kiji.rectangle(1.0, 1.0, nx=33, ny=33)
+    p = g.positions
+    g.positions = np.column_stack([p[:, 0] - 0.5, np.full(len(p), g.material.thickness), 0.5 - p[:, 1]])
+    s = kiji.Session(body=floor)
+    s.add_garment(g)
+    for _ in range(60):
+        s.step()
+    assert s.measure().sleeping == s.measure().vertices == 33 * 33
+    before = s.garment(0).positions.copy()
+    for _ in range(10):
+        s.step()
+    assert np.array_equal(s.garment(0).positions, before)
+    lifted = s.garment(0).positions.copy()
+    lifted[16 * 33 + 16, 1] += 0.05
+    s.garment(0).positions = lifted
+    for _ in range(30):
+        s.step()
+    assert s.garment(0).positions[16 * 33 + 16, 1] < 0.01, "it fell back onto the floor"
+    with pytest.raises(kiji.InputError, match="sleep_after"):
+        kiji.SolverParams(sleep_after=-1)
+    off = kiji.SolverParams(sleep_after=0)
+    assert off.sleep_after == 0 and off.sleep_distance == pytest.approx(0.005)
+
+
 def test_a_session_is_the_same_on_one_thread_as_on_two():
     # The solver shares its work between threads (blocks of the cloth, colour groups, collision
     # subtrees): the garment must come out the same, bit for bit, whatever the machine's cores, so

@@ -34,6 +34,12 @@ void run(Solver& s, Garment& g, int steps) {
   for (int i = 0; i < steps; ++i) s.step(g, 1.0 / 60);
 }
 
+// Lets the cloth lie still for a second (sleep_after is 0.5 s) and checks that all of it sleeps.
+void sleep_on(Solver& s, Garment& g) {
+  run(s, g, 60);
+  ASSERT_EQ(s.measure(g).sleeping, g.mesh().number_of_vertices()) << "at rest on the floor for 1 s";
+}
+
 // The largest distance between the same vertex in two garments.
 double largest_gap(const Garment& a, const Garment& b) {
   double gap = 0;
@@ -78,9 +84,8 @@ TEST(Sleep, HandsWakeTheClothAndTheClothTheyPullFollowsAsIfAwake) {
   Solver s1, s2(off);
   s1.set_body(&floor);
   s2.set_body(&floor);
-  run(s1, asleep, 60);
+  ASSERT_NO_FATAL_FAILURE(sleep_on(s1, asleep));
   run(s2, never, 60);
-  ASSERT_EQ(s1.measure(asleep).sleeping, asleep.mesh().number_of_vertices());
   std::vector<int> h1, h2;
   for (int k = 0; k < 65; ++k) {  // the first row: the edge at z = +0.5
     h1.push_back(s1.add_attachment(Vertex(k), asleep.position(Vertex(k)), 50.0));
@@ -109,8 +114,7 @@ TEST(Sleep, AnEditOfASleepingVertexWakesItsCloth) {
   Garment g = cloth_on_floor();
   Solver solver;
   solver.set_body(&floor);
-  run(solver, g, 60);
-  ASSERT_EQ(solver.measure(g).sleeping, g.mesh().number_of_vertices());
+  ASSERT_NO_FATAL_FAILURE(sleep_on(solver, g));
   const Vertex v(65 * 32 + 32);  // the middle
   g.set_position(v, g.position(v) + Vec3(0, 0.05, 0));
   solver.step(g, 1.0 / 60);
@@ -120,8 +124,7 @@ TEST(Sleep, AnEditOfASleepingVertexWakesItsCloth) {
   EXPECT_LT(g.position(v).y(), 0.01) << "back on the floor";
 
   // Pinning a vertex of a sleeping cloth and moving it (the sew tool's drag) wakes it the same way.
-  run(solver, g, 60);
-  ASSERT_EQ(solver.measure(g).sleeping, g.mesh().number_of_vertices());
+  ASSERT_NO_FATAL_FAILURE(sleep_on(solver, g));
   const Vertex c(0);
   g.set_pinned(c, true);
   g.set_position(c, g.position(c) + Vec3(0, 0.1, 0));
@@ -137,8 +140,7 @@ TEST(Sleep, NewPhysicsWakesEverything) {
   Garment g = cloth_on_floor();
   Solver solver;
   solver.set_body(&floor);
-  run(solver, g, 60);
-  ASSERT_EQ(solver.measure(g).sleeping, g.mesh().number_of_vertices());
+  ASSERT_NO_FATAL_FAILURE(sleep_on(solver, g));
   SolverParams p = solver.params();
   p.gravity = Vec3(9.81, 0, 0);
   solver.set_params(p);

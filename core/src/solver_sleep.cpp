@@ -18,7 +18,6 @@ namespace kiji::solver_detail {
 
 namespace {
 
-
 // What the resting shape depends on. Not the damping: cloth at rest stays at rest whatever it is.
 std::array<double, 15> physics_of(const SolverParams& p, const Material& m) {
   return {static_cast<double>(p.model), p.gravity.x(), p.gravity.y(), p.gravity.z(),

@@ -90,6 +90,11 @@ const char* kPaperTable =
     "\"cut\": [65, 65, 65], \"sew\": [64, 46, 32], \"paint\": [25, 22, 22]}, \"with_edges\": {\"pinch\": [22, 13, 7], "
     "\"tear\": [22, 13, 7], \"cut\": [53, 33, 33], \"sew\": [33, 27, 18], \"paint\": [22, 18, 17]}}";
 
+// Whether every vertex of the session's garment sleeps (see SolverParams::sleep_after).
+bool all_asleep(Session& s) {
+  return s.solver(0).measure(s.garment(0)).sleeping == s.garment(0).mesh().number_of_vertices();
+}
+
 // A garment on the body at rest, as a designer finds it: placed over the body and let fall with
 // its damping raised (so that it comes to rest in a few seconds, not a minute), until every part
 // of it sleeps (see SolverParams::sleep_after) or 12 s have passed. Not timed.
@@ -105,7 +110,7 @@ Garment settled_on(const Body& body, int vertices, std::shared_ptr<ToolRegistry>
   s.add_garment(std::move(g));
   for (int i = 0; i < 12 * 60; ++i) {
     s.step();
-    if (i % 15 == 14 && s.solver(0).measure(s.garment(0)).sleeping == s.garment(0).mesh().number_of_vertices()) break;
+    if (i % 15 == 14 && all_asleep(s)) break;
   }
   Garment out = s.garment(0);
   out.set_material(cloth);
@@ -131,7 +136,7 @@ std::vector<ToolRate> tool_rates(const Body& body, int vertices, int frames, std
       // The garment at rest: a new session's solver has it all awake, and puts it to sleep again
       // in sleep_after (0.5 s; not timed).
       s.add_garment(settled);
-      for (int i = 0; i < 60 && s.solver(0).measure(s.garment(0)).sleeping < s.garment(0).mesh().number_of_vertices(); i += 10)
+      for (int i = 0; i < 60 && !all_asleep(s); i += 10)
         for (int k = 0; k < 10; ++k) s.step();
     }
     // A stroke 0.4 m long across the cloth, seen from above (over the shoulders on the garment at

@@ -149,6 +149,32 @@ TEST(Xpbd, ClothThrownFastAtTheBodyDoesNotTunnel) {
   }
 }
 
+TEST(Xpbd, ClothThrownAtAFrictionlessFloorKeepsItsSpeedAlongIt) {
+  // 10 m/s down and 6 m/s along: in its first substep the cloth goes through the floor's plane
+  // (1.7 cm a substep, from 1 cm above it). It must come back above the floor and slide on at
+  // 6 m/s: stopping it where it crossed would take 40 % of its speed along a floor that has no
+  // friction (and lock cloth that a constraint pulls along a surface).
+  const Body floor = Body::from_triangles({{-4, 0, -4}, {4, 0, -4}, {4, 0, 4}, {-4, 0, 4}}, {{{0, 2, 1}}, {{0, 3, 2}}},
+                                          "floor");
+  Material mat;
+  mat.friction = 0;
+  mat.damping = 0;
+  Garment g = make_rectangle(0.2, 0.2, 11, 11, mat);
+  lay_flat(g, Vec3(0, 0.01, 0.1));
+  for (Vertex v : g.mesh().vertices()) g.velocity(v) = Vec3(6, -10, 0);
+  const Vec3 start = g.position(Vertex(60));
+  SolverParams p;
+  p.gravity = Vec3::Zero();
+  Solver solver(p);
+  solver.set_body(&floor);
+  run(solver, g, 3.0 / 60);
+  for (Vertex v : g.mesh().vertices()) {
+    EXPECT_GE(g.position(v).y(), 0.99 * mat.thickness) << "vertex " << v.idx() << " is under the floor";
+    EXPECT_NEAR(g.velocity(v).x(), 6.0, 0.06) << "vertex " << v.idx();
+  }
+  EXPECT_NEAR(g.position(Vertex(60)).x() - start.x(), 6.0 * 3 / 60, 0.003) << "the cloth slid on";
+}
+
 namespace {
 // A 1 m strip folded over itself at 0.6 m: the lower layer (pinned flat at y = 0, 0.57 m long)
 // and a shorter upper layer 4 cm above it, joined by a half circle. Returns the pattern x where

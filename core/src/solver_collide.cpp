@@ -154,8 +154,13 @@ void resolve_body_against(SolverArrays& s, int i, double th, double mu, const in
       // It went through the triangle's plane this substep: did it go through the triangle?
       double t;
       if (geom::segment_crosses_triangle(xp, x, T.a, T.b, T.c, t)) {
-        const Vec3 nx = xp + t * (x - xp) + th * T.n;  // back to the side it came from
-        push += (nx - x).norm();
+        // Back to the side it came from, along the triangle's normal: only the motion through the
+        // surface is undone; the motion along it is kept, for friction to take what it may.
+        // Stopping the vertex where it crossed was a friction without limit: an edge pulled
+        // around the head by the strain limit (its chord dips into the head) was stopped every
+        // substep, and stayed stretched 12-fold.
+        const Vec3 nx = x + (th - dn) * T.n;
+        push += th - dn;
         nrm = T.n;
         x = nx;
         continue;

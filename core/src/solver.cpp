@@ -109,11 +109,11 @@ void Solver::set_body(const Body* body) {
 
 void Solver::add_external_force(Vertex v, const Vec3& force) { forces_.push_back({v, force}); }
 
-int Solver::add_attachment(Vertex v, const Vec3& target, double stiffness) {
+int Solver::add_attachment(Vertex v, const Vec3& target, double stiffness, bool firm) {
   if (!all_finite(target)) throw InputError("an attachment's target point is not finite");
   if (!std::isfinite(stiffness) || stiffness <= 0)
     throw InputError("an attachment's stiffness is " + std::to_string(stiffness) + ": it must be positive, in N/m");
-  attachments_.push_back({next_attachment_, v, target, stiffness});
+  attachments_.push_back({next_attachment_, v, target, stiffness, firm});
   return next_attachment_++;
 }
 
@@ -607,7 +607,7 @@ void Solver::step(Garment& garment, double dt) {
                                     [&](const Attachment& a) { return a.vertex.idx() >= n || !s.alive[a.vertex.idx()]; }),
                      attachments_.end());
   s.attach.clear();
-  for (const auto& a : attachments_) s.attach.push_back({static_cast<int>(a.vertex.idx()), a.target, a.stiffness});
+  for (const auto& a : attachments_) s.attach.push_back({static_cast<int>(a.vertex.idx()), a.target, a.stiffness, a.firm});
   s.tacks.clear();
   for (const auto& [a, b] : garment.tacks)
     if (a.idx() < n && b.idx() < n && s.alive[a.idx()] && s.alive[b.idx()])

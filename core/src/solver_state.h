@@ -93,6 +93,7 @@ struct SolverArrays {
     int i;
     Vec3 target;
     double k;  // N/m
+    bool firm;  // projected after the cloth's constraints (wins), or with them
   };
   std::vector<Attach> attach;
   std::vector<std::array<int, 2>> tacks;

@@ -245,7 +245,18 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
     });
     std::fill(s.lam_e.begin(), s.lam_e.end(), 0.0);
     if (bending) std::fill(s.lam_b.begin(), s.lam_b.end(), Vec3::Zero());
+    // Hands: zero-length springs to a point, compliance 1 / k. The plain ones first in the sweep,
+    // so that the cloth's constraints after them pull back; the firm ones at the end (below).
+    auto hands = [&](bool firm) {
+      for (const auto& a : s.attach) {
+        const int i = a.i;
+        if (a.firm != firm || W[i] == 0) continue;
+        const double alpha = 1.0 / (a.k * h * h);
+        X[i] += (a.target - X[i]) * (W[i] / (W[i] + alpha));
+      }
+    };
     for (int it = 0; it < p.iterations; ++it) {
+      hands(false);
       auto limits = [&](int b, int e) {  // long-range limits
         for (int k = b; k < e; ++k) {
           const int i = cs.l_i[k], j = cs.l_j[k];
@@ -328,15 +339,9 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
       resolve_self(s, th);
     }
     if (p.strain_limit > 0) limit_strain(s, cs, p.strain_limit);
-    // Hands (zero-length springs to a point, compliance 1 / k), after the cloth's own constraints
-    // and the strain limit so that they win ties: a hand can stretch the cloth past the limit, and
-    // so tear it.
-    for (const auto& a : s.attach) {
-      const int i = a.i;
-      if (W[i] == 0) continue;
-      const double alpha = 1.0 / (a.k * h * h);
-      X[i] += (a.target - X[i]) * (W[i] / (W[i] + alpha));
-    }
+    // Firm hands, after the cloth's own constraints and the strain limit so that they win ties: a
+    // firm hand can stretch the cloth past the limit, and so tear it.
+    hands(true);
     // Each contact moves only its own vertex.
     parallel::for_range(static_cast<int>(s.contact_verts.size()), kContactGrain, [&](int b, int e) {
       for (int k = b; k < e; ++k) resolve_body(s, s.contact_verts[k], th, m.friction);

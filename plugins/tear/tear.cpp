@@ -32,7 +32,7 @@ class TearTool : public Tool {
     if (!event.hit.hit) return {};
     garment_ = event.hit.garment;
     grabbed_ = event.hit.nearest;
-    attachment_ = session.solver(garment_).add_attachment(grabbed_, event.position, stiffness_);
+    attachment_ = session.solver(garment_).add_attachment(grabbed_, event.position, stiffness_, /*firm=*/true);
     return feedback(session, event.position);
   }
 

@@ -98,7 +98,13 @@ class Solver {
   // compliance 1 / stiffness), so a stiff hand on a light vertex stays stable; MassSpring adds its
   // force k (target - x) like any other force of eq. 2. Returns an id; an attachment to a vertex
   // that a topology edit removes is dropped.
-  int add_attachment(Vertex v, const Vec3& target, double stiffness);
+  // Xpbd solves a plain attachment in the same sweep as the cloth's own constraints, before them,
+  // so that the cloth pulls back: a hand brings the cloth along as far as the cloth's stiffness
+  // carries it in the step, and does not stretch it past its strain limit (a hand of 50 N/m on one
+  // corner of a fine cloth, projected last, pulled it out as a spike 7 to 30 times its length). A
+  // `firm` one is projected after them and after the strain limit: it wins, and can stretch the
+  // cloth past the limit (the tear tool pulls until the cloth tears).
+  int add_attachment(Vertex v, const Vec3& target, double stiffness, bool firm = false);
   void move_attachment(int id, const Vec3& target);
   void remove_attachment(int id);
   std::size_t attachment_count() const { return attachments_.size(); }
@@ -129,6 +135,7 @@ class Solver {
     Vertex vertex;
     Vec3 target;
     double stiffness;
+    bool firm;
   };
   std::vector<Attachment> attachments_;
   int next_attachment_ = 0;

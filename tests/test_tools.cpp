@@ -1,6 +1,7 @@
 // The five tools of the paper and pin, loaded as plugins from the build tree and driven by recorded
 // strokes through a session, checked as a user would check them.
 #include "kiji/error.h"
+#include "kiji/haptics.h"
 #include "kiji/io.h"
 #include "kiji/pattern.h"
 #include "kiji/session.h"
@@ -150,6 +151,54 @@ TEST(Pinch, TheGrabbedVertexFollowsAndTheFeedbackIsTheSpringForce) {
   expect_same(state_of(s.garment(0)), before);
   ASSERT_TRUE(s.redo());
   expect_same(state_of(s.garment(0)), after);
+}
+
+TEST(Pinch, TakesThePatchUnderTheFingertipAndFeelsAllOfIt) {
+  // Vertices 8.3 mm apart: within the 2 cm grab radius of a vertex lie it, 4 at 8.3 mm, 4 at
+  // 11.8 mm, 4 at 16.7 mm and 8 at 18.6 mm.
+  auto owner = flat_session(1.0, 1.0, 121, 121);
+  Session& s = *owner;
+  const Vec3 p0(0.5, 0.5, 0);
+  std::vector<std::pair<Vertex, Vec3>> patch;  // the vertices within 2 cm, and where they were
+  for (Vertex v : s.garment(0).mesh().vertices())
+    if ((s.garment(0).position(v) - p0).norm() <= 0.02) patch.push_back({v, s.garment(0).position(v)});
+  ASSERT_EQ(patch.size(), 21u);
+  const double k = 500;
+  ParamSet p = s.params_for("pinch", {{"stiffness", k}});
+  const Stroke stroke = line(p0, p0 + Vec3(0, 0, 0.05), 20);
+  Feedback f;
+  for (const ToolEvent& e : stroke) {
+    if (e.phase == Phase::End) break;
+    f = s.apply("pinch", e, &p);
+    EXPECT_EQ(s.solver(0).attachment_count(), 21u) << "one spring for each vertex of the patch";
+  }
+  // The force is the sum of the 21 springs of k / 21, each from where its vertex is to where the
+  // hand holds it (its place when taken, carried by the pointer's motion); the haptic thread's
+  // force from a snapshot of the cloth is the same.
+  const Vec3 pointer = stroke[stroke.size() - 2].position;
+  Vec3 expected = Vec3::Zero();
+  for (const auto& [v, was] : patch) {
+    const Vec3 x = s.garment(0).position(v);
+    expected += (k / 21) * (x - (was - p0) - pointer);
+    EXPECT_GT(x.z(), 0.04) << "vertex " << v.idx() << " of the patch came up with the hand";
+  }
+  EXPECT_LT((f.force - expected).norm(), 1e-9) << f.force.transpose() << " vs " << expected.transpose();
+  const Feedback felt = s.tool("pinch").haptic_force(take_snapshot(s, 0, pointer, 0.1), stroke[stroke.size() - 2]);
+  EXPECT_LT((felt.force - expected).norm(), 1e-9);
+  s.apply("pinch", stroke.back(), &p);
+  EXPECT_EQ(s.solver(0).attachment_count(), 0u) << "released";
+
+  // A grab radius of 0 takes the nearest vertex alone, as the paper did; so does the default
+  // radius on a mesh coarser than it (vertices 5 cm apart).
+  ParamSet one = s.params_for("pinch", {{"grab_radius", 0.0}});
+  s.apply("pinch", stroke[0], &one);
+  EXPECT_EQ(s.solver(0).attachment_count(), 1u);
+  s.apply("pinch", stroke.back(), &one);
+  auto coarse = flat_session(1.0, 1.0, 21, 21);
+  const ParamSet defaults = coarse->params_for("pinch");
+  coarse->apply("pinch", stroke[0], &defaults);
+  EXPECT_EQ(coarse->solver(0).attachment_count(), 1u);
+  coarse->apply("pinch", stroke.back());
 }
 
 TEST(Pinch, WithALocalRadiusNothingOutsideItMoves) {

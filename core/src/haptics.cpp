@@ -11,9 +11,9 @@
 namespace kiji {
 
 const Vec3* HapticSnapshot::position_of(Vertex v) const {
-  for (std::size_t i = 0; i < vertices.size(); ++i)
-    if (vertices[i] == v) return &positions[i];
-  return nullptr;
+  const auto it = std::lower_bound(vertices.begin(), vertices.end(), v);
+  if (it == vertices.end() || *it != v) return nullptr;
+  return &positions[static_cast<std::size_t>(it - vertices.begin())];
 }
 
 SurfaceHit HapticSnapshot::nearest(const Vec3& p) const {

@@ -27,11 +27,11 @@ struct HapticSnapshot {
   std::size_t garment = 0;
   Vec3 center{0, 0, 0};
   double radius = 0;
-  std::vector<Vertex> vertices;             // the vertices within radius of center
+  std::vector<Vertex> vertices;             // the vertices within radius of center, in index order
   std::vector<Vec3> positions;              // their positions
   std::vector<std::array<int, 3>> triangles;  // faces whose three vertices are all in, as local indices
 
-  // Where `v` was, or nullptr if it is not in the snapshot.
+  // Where `v` was, or nullptr if it is not in the snapshot (a binary search of `vertices`).
   const Vec3* position_of(Vertex v) const;
   // The snapshot's cloth surface point nearest p (hit = false if the snapshot has no triangle).
   SurfaceHit nearest(const Vec3& p) const;

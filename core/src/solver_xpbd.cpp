@@ -327,7 +327,7 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
     }
     // Self-collision, then the strain limit (a self-collision push of up to half the thickness
     // stretches the edges of a fold by as much: the limit takes it back, and what it leaves is
-    // resolved in the next substep), then the hands, then the body last, so nothing ends a
+    // resolved in the next substep), then the firm hands, then the body last, so nothing ends a
     // substep inside it.
     if (!s.self_pairs.empty()) {
       parallel::for_range(na, kVertexGrain, [&](int b, int e) {

@@ -144,7 +144,7 @@ class PinchTool : public Tool {
     Feedback f;
     const Garment& g = session.garment(garment_);
     for (std::size_t i = 0; i < grip_->vertices.size(); ++i)
-      if (!g.mesh().is_removed(grip_->vertices[i]))
+      if (g.mesh().has_valid_index(grip_->vertices[i]) && !g.mesh().is_removed(grip_->vertices[i]))
         f.force += grip_->k * (g.position(grip_->vertices[i]) - grip_->offsets[i] - pointer);
     return f;
   }

@@ -8,6 +8,11 @@
 
 namespace kiji::test {
 
+// A floor 4 m square at y = 0, facing up.
+inline Body make_floor() {
+  return Body::from_triangles({{-2, 0, -2}, {2, 0, -2}, {2, 0, 2}, {-2, 0, 2}}, {{{0, 2, 1}}, {{0, 3, 2}}}, "floor");
+}
+
 // An icosphere of the given radius and centre, subdivided `levels` times (20 * 4^levels
 // triangles), wound counter-clockwise seen from outside so normals point outwards.
 inline Body make_sphere(double radius, const Vec3& centre, int levels = 3) {

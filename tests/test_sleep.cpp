@@ -3,6 +3,8 @@
 #include "kiji/pattern.h"
 #include "kiji/solver.h"
 
+#include "test_shapes.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -12,11 +14,6 @@
 using namespace kiji;
 
 namespace {
-
-// A floor 4 m square at y = 0, facing up.
-Body floor_body() {
-  return Body::from_triangles({{-2, 0, -2}, {2, 0, -2}, {2, 0, 2}, {-2, 0, 2}}, {{{0, 2, 1}}, {{0, 3, 2}}}, "floor");
-}
 
 // A cloth 1 m square of 65 x 65 vertices (four blocks of about a thousand) lying flat on the floor
 // at its thickness: at rest from the first step.
@@ -50,7 +47,7 @@ double largest_gap(const Garment& a, const Garment& b) {
 }  // namespace
 
 TEST(Sleep, ClothAtRestFallsAsleepAndStaysExactlyWhereItIs) {
-  const Body floor = floor_body();
+  const Body floor = test::make_floor();
   Garment g = cloth_on_floor();
   Solver solver;
   solver.set_body(&floor);
@@ -77,7 +74,7 @@ TEST(Sleep, HandsWakeTheClothAndTheClothTheyPullFollowsAsIfAwake) {
   // A sleeping cloth is lifted 0.3 m by one edge (a hand on each vertex of it) over a second. The
   // hands' blocks wake at once and the rest as the pull reaches them: the cloth ends as a cloth
   // that never slept does.
-  const Body floor = floor_body();
+  const Body floor = test::make_floor();
   Garment asleep = cloth_on_floor(), never = cloth_on_floor();
   SolverParams off;
   off.sleep_after = 0;
@@ -110,7 +107,7 @@ TEST(Sleep, HandsWakeTheClothAndTheClothTheyPullFollowsAsIfAwake) {
 
 TEST(Sleep, AnEditOfASleepingVertexWakesItsCloth) {
   // A script lifts one vertex of a sleeping cloth 5 cm: it falls back, it is not left floating.
-  const Body floor = floor_body();
+  const Body floor = test::make_floor();
   Garment g = cloth_on_floor();
   Solver solver;
   solver.set_body(&floor);
@@ -136,7 +133,7 @@ TEST(Sleep, AnEditOfASleepingVertexWakesItsCloth) {
 TEST(Sleep, NewPhysicsWakesEverything) {
   // Gravity turned sideways under a sleeping cloth (as a changed material or body would): it all
   // wakes and moves.
-  const Body floor = floor_body();
+  const Body floor = test::make_floor();
   Garment g = cloth_on_floor();
   Solver solver;
   solver.set_body(&floor);

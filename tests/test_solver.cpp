@@ -154,8 +154,7 @@ TEST(Xpbd, ClothThrownAtAFrictionlessFloorKeepsItsSpeedAlongIt) {
   // (1.7 cm a substep, from 1 cm above it). It must come back above the floor and slide on at
   // 6 m/s: stopping it where it crossed would take 40 % of its speed along a floor that has no
   // friction (and lock cloth that a constraint pulls along a surface).
-  const Body floor = Body::from_triangles({{-4, 0, -4}, {4, 0, -4}, {4, 0, 4}, {-4, 0, 4}}, {{{0, 2, 1}}, {{0, 3, 2}}},
-                                          "floor");
+  const Body floor = test::make_floor();
   Material mat;
   mat.friction = 0;
   mat.damping = 0;
@@ -180,8 +179,7 @@ namespace {
 // second by a hand of 50 N/m and held there half a second. Returns the largest edge strain at the
 // end, and where the corner ended.
 std::pair<double, Vec3> lift_a_corner(bool firm) {
-  const Body floor = Body::from_triangles({{-4, 0, -4}, {4, 0, -4}, {4, 0, 4}, {-4, 0, 4}}, {{{0, 2, 1}}, {{0, 3, 2}}},
-                                          "floor");
+  const Body floor = test::make_floor();
   Garment g = make_rectangle(1.0, 1.0, 65, 65);
   lay_flat(g, Vec3(0, g.material().thickness, 0));
   Solver solver;

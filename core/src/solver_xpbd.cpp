@@ -246,7 +246,9 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
     std::fill(s.lam_e.begin(), s.lam_e.end(), 0.0);
     if (bending) std::fill(s.lam_b.begin(), s.lam_b.end(), Vec3::Zero());
     // Hands: zero-length springs to a point, compliance 1 / k. The plain ones first in the sweep,
-    // so that the cloth's constraints after them pull back; the firm ones at the end (below).
+    // so that the cloth's constraints after them pull back; the firm ones at the end (below). No
+    // multiplier is kept for them: with more than one iteration a hand is projected again each
+    // sweep and holds a little stiffer than 1 / compliance (one iteration is the default).
     auto hands = [&](bool firm) {
       for (const auto& a : s.attach) {
         const int i = a.i;

@@ -1,6 +1,7 @@
 // Collisions for the solver: cloth against the body and cloth against itself.
 //
-// Culling happens once per step; the substeps only run exact tests on the cached candidates:
+// Culling happens once per step (body) or once per window of substeps (self); the substeps only run
+// exact tests on the cached candidates:
 //  - body: the vertices are grouped in clusters of nearby vertices (Morton order); each cluster's
 //    swept box (the step's predicted motion plus the thickness) queries the body's Bullet tree
 //    once, and each vertex keeps the triangles whose boxes meet its own swept box. A vertex that
@@ -8,8 +9,10 @@
 //    thousands of triangles, each tested every substep; it is tested instead against what its box
 //    of each substep's motion meets, found in the tree then (resolve_escaped);
 //  - self: two Bullet btDbvt trees (cloth vertices, cloth triangles), refitted to the swept boxes
-//    every step and intersected with each other, give vertex-triangle pairs; pairs that cannot come
-//    within the thickness during the step are dropped, and each keeps the side it started on.
+//    at each gather and intersected with each other, give vertex-triangle pairs; pairs that cannot
+//    come within the thickness during the window are dropped, and each keeps the side it started
+//    on. The window is the whole step for cloth at rest and a few substeps for cloth moving fast
+//    relative to itself (self_window in solver_xpbd.cpp).
 #include "geometry.h"
 #include "parallel.h"
 #include "solver_state.h"
@@ -33,12 +36,12 @@ constexpr double kFastSweep = 0.1;
 // and stay inside). Self-collision passes that miss less the cloth's mean miss: in its moving
 // frame a falling cloth's common g dt^2 is no motion (at 100,000 vertices, 3 mm spacing, it had
 // grown every vertex's box by more than the spacing).
-Box3 swept_box(const SolverArrays& s, const std::vector<double>& surprise, int i, double pad, double slack,
-               const Vec3& c = Vec3::Zero()) {
+Box3 swept_box(const SolverArrays& s, const std::vector<Vec3>& motion, const std::vector<double>& surprise,
+               double surprise_scale, int i, double pad, double slack, const Vec3& c = Vec3::Zero()) {
   const Vec3& a = s.x[i];
-  const Vec3 m = s.pred[i] - c;
+  const Vec3 m = motion[i] - c;
   const Vec3 b = a + m;
-  const double e = pad + slack * m.norm() + (surprise.size() == s.n ? surprise[i] : 0.0);
+  const double e = pad + slack * m.norm() + (surprise.size() == s.n ? surprise_scale * surprise[i] : 0.0);
   return Box3(a.cwiseMin(b) - Vec3::Constant(e), a.cwiseMax(b) + Vec3::Constant(e));
 }
 
@@ -86,7 +89,7 @@ void gather_body_candidates(SolverArrays& s, const BodyCollider& collider, doubl
   parallel::for_range(static_cast<int>(s.n), 2048, [&](int b, int e) {
     for (int i = b; i < e; ++i)
       if (s.moving[i]) {
-        s.box[i] = swept_box(s, s.surprise, i, pad, 0.5);
+        s.box[i] = swept_box(s, s.pred, s.surprise, 1.0, i, pad, 0.5);
         if (s.box[i].sizes().maxCoeff() > kFastSweep) s.box[i].setEmpty();  // see resolve_escaped
       }
   });
@@ -234,20 +237,25 @@ struct PairCollector : btDbvt::ICollide {
     const Vec3& B = s->x[tri[1]];
     const Vec3& C = s->x[tri[2]];
     double rel = 0;
-    for (int k = 0; k < 3; ++k) rel = std::max(rel, (s->pred[v] - s->pred[tri[k]]).squaredNorm());
+    for (int k = 0; k < 3; ++k) rel = std::max(rel, (s->win[v] - s->win[tri[k]]).squaredNorm());
     // resolve_self keeps a pair min(thickness, 0.6 spacing) apart: pairs that cannot come that
     // close are none (on a mesh finer than the thickness, the full thickness would gather several
     // rings of neighbours for every vertex, and more the finer the mesh).
     const double reach = std::min(th, 0.6 * s->spacing[v]) + std::sqrt(rel);
     // The plane first (cheap): a vertex further from the triangle's plane than it can come during
-    // the step is no pair.
+    // the window is no pair.
     const Vec3 n = (B - A).cross(C - A);
     const double n2 = n.squaredNorm();
     const double dn = (s->x[v] - A).dot(n);
     if (dn * dn > reach * reach * n2) return;
+    // Then the sphere around the triangle (cheap; on a flat sheet the plane test passes the
+    // triangles next to the vertex's neighbours, none of them within reach).
+    const Vec3 g = (A + B + C) * (1.0 / 3.0);
+    const double r = std::sqrt(std::max({(A - g).squaredNorm(), (B - g).squaredNorm(), (C - g).squaredNorm()})) + reach;
+    if ((s->x[v] - g).squaredNorm() > r * r) return;
     const geom::ClosestPoint cp = geom::closest_on_triangle(s->x[v], A, B, C);
     const Vec3 d = s->x[v] - cp.point;
-    if (d.squaredNorm() > reach * reach) return;  // cannot come within the thickness this step
+    if (d.squaredNorm() > reach * reach) return;  // cannot come within the thickness in the window
     const double side = d.dot(n) >= 0 ? 1.0 : -1.0;
     out->push_back({v, t, side, d.norm()});
   }
@@ -255,12 +263,12 @@ struct PairCollector : btDbvt::ICollide {
 
 }  // namespace
 
-// Vertex-triangle pairs that can come within the thickness during the step.
+// Vertex-triangle pairs that can come within the thickness during the window (the motion `win`).
 //
 // Culling is done in the frame that moves with the cloth's mean predicted motion c: a vertex and a
-// triangle at the same parameter s of the step are x_v + s pred_v and x_t + s pred_t; subtracting
-// s c from both keeps their distance, so boxes swept over pred - c are as good as boxes swept over
-// pred, and far smaller when the whole cloth falls or is carried together (a falling 20,000-vertex
+// triangle at the same parameter s of the window are x_v + s win_v and x_t + s win_t; subtracting
+// s c from both keeps their distance, so boxes swept over win - c are as good as boxes swept over
+// win, and far smaller when the whole cloth falls or is carried together (a falling 20,000-vertex
 // cloth went from ~5 million box overlaps a step to ~0.6 million, what it has at rest).
 //
 // Only pairs with a moving vertex can do anything: those of a moving vertex with any triangle, and
@@ -316,14 +324,14 @@ void collide_trees(SolverArrays& s, double thickness) {
 }
 }  // namespace
 
-void gather_self_pairs(SolverArrays& s, double thickness) {
+void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale) {
   s.self_pairs.clear();
   s.last_self_pairs = 0;
   if (!s.tri_tree.m_root || !s.vert_tree.m_root) return;
   Vec3 c = Vec3::Zero();
   std::size_t nm = 0, held = 0;
   for (std::size_t i = 0; i < s.n; ++i) {
-    if (s.moving[i]) c += s.pred[i], ++nm;
+    if (s.moving[i]) c += s.win[i], ++nm;
     else held += s.alive[i];
   }
   if (nm == 0) return;
@@ -332,7 +340,7 @@ void gather_self_pairs(SolverArrays& s, double thickness) {
   // A few held vertices (pins): one search of everything costs less than two; the leaves get their
   // boxes as they are computed.
   const bool one_search = 10 * held < nm;
-  // The boxes of what the step sweeps: every triangle's, and every vertex's.
+  // The boxes of what the window sweeps: every triangle's, and every vertex's.
   s.tri_box.resize(s.tris.size());
   parallel::for_range(static_cast<int>(s.tris.size()), 2048, [&](int b0, int e0) {
     for (int t = b0; t < e0; ++t) {
@@ -340,7 +348,7 @@ void gather_self_pairs(SolverArrays& s, double thickness) {
       for (int k = 0; k < 3; ++k) {
         const int u = s.tris[t][k];
         b.extend(s.x[u]);
-        b.extend(Vec3(s.x[u] + s.pred[u] - c));
+        b.extend(Vec3(s.x[u] + s.win[u] - c));
       }
       s.tri_box[t] = to_bt(b);
       if (one_search) s.tri_leaf[t]->volume = s.tri_box[t];
@@ -350,7 +358,7 @@ void gather_self_pairs(SolverArrays& s, double thickness) {
   parallel::for_range(static_cast<int>(s.n), 2048, [&](int b0, int e0) {
     for (int i = b0; i < e0; ++i) {
       if (!s.vert_leaf[i]) continue;
-      s.vert_box[i] = to_bt(swept_box(s, s.surprise_self, i, std::min(thickness, 0.6 * s.spacing[i]), 0.1, c));
+      s.vert_box[i] = to_bt(swept_box(s, s.win, s.surprise_self, surprise_scale, i, std::min(thickness, 0.6 * s.spacing[i]), 0.1, c));
       if (one_search) s.vert_leaf[i]->volume = s.vert_box[i];
     }
   });
@@ -400,7 +408,7 @@ void resolve_self(SolverArrays& s, double thickness) {
     // The distance from a point to a triangle changes no faster than the point and the triangle's
     // corners move: a pair that started further apart than the thickness plus everything its four
     // vertices have moved since (pushes included) cannot be within it, nor have crossed. Many pairs
-    // gathered for a step with large relative motion (cloth landing, a pinch) end here.
+    // gathered for a window with large relative motion (cloth landing, a pinch) end here.
     if (p.d0 - R[p.v] - std::max({R[tri[0]], R[tri[1]], R[tri[2]]}) > thickness) continue;
     Vec3& xv = s.x[p.v];
     Vec3& A = s.x[tri[0]];

@@ -131,15 +131,16 @@ struct SolverArrays {
   std::vector<btDbvtNode*> tri_leaf, vert_leaf;
   struct SelfPair {
     int v, t;
-    double side;  // +1 / -1: the side of the triangle the vertex was on at the start of the step
-    double d0;    // their distance at the start of the step
+    double side;  // +1 / -1: the side of the triangle the vertex was on when the pair was gathered
+    double d0;    // their distance then
   };
   std::vector<SelfPair> self_pairs;
-  std::vector<std::vector<SelfPair>> self_gather;
-  std::vector<btDbvtVolume> tri_box, vert_box;  // what each triangle and vertex sweeps this step
-  // Per vertex, for skipping far pairs: the length of its path this step up to the last substep,
-  // and up to now (path + this substep's motion + the self-collision pushes it has had).
-  std::vector<double> path, reach;  // one list per vertex subtree, joined in order
+  std::vector<std::vector<SelfPair>> self_gather;  // one list per vertex subtree, joined in order
+  std::vector<btDbvtVolume> tri_box, vert_box;  // what each triangle and vertex sweeps in the window
+  // Per vertex, for skipping far pairs: the length of its path since the pairs were gathered, up
+  // to the last substep, and up to now (path + this substep's motion + the self-collision pushes).
+  std::vector<double> path, reach;
+  std::vector<Vec3> win;  // per vertex: its predicted motion over the window of the last gather
 
   // ---- sleeping (see SolverParams::sleep_after), reset to all awake by rebuild ----
   bool sleep_ready = false;
@@ -174,7 +175,9 @@ void resolve_body_against(SolverArrays& s, int i, double thickness, double frict
 // against the body triangles along their actual motion in this substep, so they cannot pass
 // through a triangle that was not a candidate.
 void resolve_escaped(SolverArrays& s, const BodyCollider& collider, double thickness, double friction);
-void gather_self_pairs(SolverArrays& s, double thickness);
+// Vertex-triangle pairs that can come within the thickness while the vertices move by `win` (from
+// x), with the last step's surprise_self times surprise_scale as slack.
+void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale);
 void resolve_self(SolverArrays& s, double thickness);
 // Sleeping (solver_sleep.cpp). Before a step, after the mesh is mirrored: wakes every block when the
 // physics changed or the arrays were rebuilt, and the blocks that `disturbed` marks; then clears

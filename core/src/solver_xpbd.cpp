@@ -198,7 +198,7 @@ void limit_strain(SolverArrays& s, const Constraints& cs, double limit) {
 // the window. A garment dragged or sliding off the body moves centimetres a step relative to
 // itself, and a gather for the whole step found the pairs within those centimetres: 1.7 million
 // at 20,000 vertices, most of the step's time. Shorter windows find fewer pairs but gather more
-// often, and a gather has a cost of its own (the trees' traversal, ~0.75 us a vertex on this
+// often, and a gather has a cost of its own (the trees' traversal, ~0.75 us a vertex on a 2-core
 // machine). The window taken is the cheapest under that cost model, per step:
 //   substeps / K * (gathers' own cost + pairs(K)) + substeps * 0.13 * pairs(K),
 //   pairs(K) ~ sum over the moving vertices of (th + K / substeps * |motion - mean motion|)^2,

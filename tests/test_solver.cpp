@@ -231,6 +231,19 @@ double fold_strip(Garment& g, double radius) {
   }
   return a + M_PI * radius;
 }
+
+// The lowest point of the fold's upper layer (past its start at pattern x `upper`, on a strip of nx
+// vertices a row) over the lower layer (0.02 < x < 0.55, and across it within `z0` < z < `z1`).
+double lowest_over_lower_layer(const Garment& g, int nx, double upper, double z0 = -1e9, double z1 = 1e9) {
+  double lowest = 1e9;
+  for (Vertex v : g.mesh().vertices()) {
+    const double u = double(v.idx() % nx) / (nx - 1);  // pattern x of the vertex
+    const Vec3 q = g.position(v);
+    if (u > upper + 0.03 && q.x() > 0.02 && q.x() < 0.55 && q.z() > z0 && q.z() < z1)
+      lowest = std::min(lowest, q.y());
+  }
+  return lowest;
+}
 }  // namespace
 
 TEST(Xpbd, SelfCollisionKeepsAFoldedClothFromPassingThroughItself) {
@@ -252,11 +265,7 @@ TEST(Xpbd, SelfCollisionKeepsAFoldedClothFromPassingThroughItself) {
     double lowest = 1e9;
     for (int step = 0; step < 30; ++step) {
       solver.step(g, 1.0 / 60);
-      for (Vertex v : g.mesh().vertices()) {
-        const double u = double(v.idx() % nx) / (nx - 1);  // pattern x of the vertex
-        const Vec3 q = g.position(v);
-        if (u > upper + 0.03 && q.x() > 0.02 && q.x() < 0.55) lowest = std::min(lowest, q.y());
-      }
+      lowest = std::min(lowest, lowest_over_lower_layer(g, nx, upper));
     }
     if (self) {
       EXPECT_GE(lowest, 0.75 * mat.thickness) << "the upper layer stays on the lower one";
@@ -295,11 +304,7 @@ TEST(Xpbd, SelfCollisionCatchesALayerThrownHardAcrossAnother) {
     double lowest = 1e9;
     for (int step = 0; step < 20; ++step) {
       solver.step(g, 1.0 / 60);
-      for (Vertex v : g.mesh().vertices()) {
-        const double u = double(v.idx() % nx) / (nx - 1);
-        const Vec3 q = g.position(v);
-        if (u > upper + 0.03 && q.x() > 0.02 && q.x() < 0.55) lowest = std::min(lowest, q.y());
-      }
+      lowest = std::min(lowest, lowest_over_lower_layer(g, nx, upper));
     }
     if (self) {
       EXPECT_GE(lowest, 1.5 * mat.thickness) << "the upper layer stays on the lower one";
@@ -330,12 +335,7 @@ TEST(Xpbd, SelfCollisionHoldsOnAMeshFinerThanTheThickness) {
   double lowest = 1e9;
   for (int step = 0; step < 30; ++step) {
     solver.step(g, 1.0 / 60);
-    for (Vertex v : g.mesh().vertices()) {
-      const double u = double(v.idx() % nx) / (nx - 1);
-      const Vec3 q = g.position(v);
-      if (u > upper + 0.03 && q.x() > 0.02 && q.x() < 0.55 && q.z() > 0.02 && q.z() < 0.28)
-        lowest = std::min(lowest, q.y());
-    }
+    lowest = std::min(lowest, lowest_over_lower_layer(g, nx, upper, 0.02, 0.28));
   }
   EXPECT_GE(lowest, 0.75 * kept) << "the upper layer stays on the lower one";
   EXPECT_LT(lowest, 2 * mat.thickness) << "and has fallen onto it";

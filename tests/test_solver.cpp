@@ -369,8 +369,11 @@ TEST(Xpbd, TheLocalRegionCollidesWithTheClothAroundIt) {
     double lowest = 1e9;
     for (int step = 0; step < 20; ++step) {
       solver.step(g, 1.0 / 60);
+      // The end's vertices still in the region: one that swings out of it is held where it left,
+      // wherever that is (mid-fall, say), resting on nothing.
       for (Vertex v : g.mesh().vertices())
-        if (!g.pinned(v) && inside(before.position(v))) lowest = std::min(lowest, g.position(v).y());
+        if (!g.pinned(v) && inside(before.position(v)) && inside(g.position(v)))
+          lowest = std::min(lowest, g.position(v).y());
     }
     for (Vertex v : g.mesh().vertices())
       if (!inside(before.position(v))) ASSERT_EQ(g.position(v), before.position(v)) << "held vertex " << v.idx() << " moved";

@@ -500,27 +500,41 @@ void rebuild(SolverArrays& s, const Garment& g) {
   }
   build_long_range(s);
 
-  // Self-collision trees: one leaf per triangle and per vertex, built once, refitted every step.
-  s.tri_leaf.assign(s.tris.size(), nullptr);
-  s.vert_leaf.assign(n, nullptr);
-  std::vector<btDbvtVolume> volumes(s.tris.size());
+  // Self-collision trees: a leaf per cluster of nearby triangles and of nearby vertices (runs in
+  // Morton order), built once, refitted at each gather.
+  auto cluster_tree = [&](const std::vector<std::pair<std::uint32_t, int>>& sorted, int size,
+                          const std::vector<Box3>& item_box, btDbvt& tree, std::vector<int>& begin,
+                          std::vector<int>& items, std::vector<btDbvtNode*>& leaf_of) {
+    const int count = static_cast<int>(sorted.size()), clusters = (count + size - 1) / size;
+    begin.assign(1, 0);
+    items.clear();
+    std::vector<std::pair<std::uint32_t, int>> keys;
+    std::vector<btDbvtVolume> volumes;
+    for (int c = 0; c < clusters; ++c) {
+      Box3 b;
+      for (int k = c * size; k < std::min(count, (c + 1) * size); ++k) {
+        items.push_back(sorted[k].second);
+        b.extend(item_box[sorted[k].second]);
+      }
+      begin.push_back(static_cast<int>(items.size()));
+      keys.emplace_back(sorted[c * size].first, c);
+      volumes.push_back(btDbvtVolume::FromMM(btVector3(b.min().x(), b.min().y(), b.min().z()),
+                                             btVector3(b.max().x(), b.max().y(), b.max().z())));
+    }
+    leaf_of.assign(clusters, nullptr);
+    build_tree(tree, keys, volumes, leaf_of);
+  };
+  std::vector<Box3> item_box(s.tris.size());
   keyed.clear();
   for (std::size_t t = 0; t < s.tris.size(); ++t) {
-    Box3 b;
-    for (int k = 0; k < 3; ++k) b.extend(to_vec(m.point(vtx(s.tris[t][k]))));
-    volumes[t] = btDbvtVolume::FromMM(btVector3(b.min().x(), b.min().y(), b.min().z()),
-                                      btVector3(b.max().x(), b.max().y(), b.max().z()));
-    keyed.emplace_back(morton(b.center()), static_cast<int>(t));
+    for (int k = 0; k < 3; ++k) item_box[t].extend(to_vec(m.point(vtx(s.tris[t][k]))));
+    keyed.emplace_back(morton(item_box[t].center()), static_cast<int>(t));
   }
   std::sort(keyed.begin(), keyed.end());
-  build_tree(s.tri_tree, keyed, volumes, s.tri_leaf);
-  volumes.assign(n, btDbvtVolume());
-  for (Vertex v : m.vertices()) {
-    const Vec3 p = to_vec(m.point(v));
-    const btVector3 q(p.x(), p.y(), p.z());
-    volumes[v.idx()] = btDbvtVolume::FromMM(q, q);
-  }
-  build_tree(s.vert_tree, vertex_keys, volumes, s.vert_leaf);
+  cluster_tree(keyed, SolverArrays::kTriCluster, item_box, s.tri_tree, s.tcl_begin, s.tcl_items, s.tcl_leaf);
+  item_box.assign(n, Box3());
+  for (Vertex v : m.vertices()) item_box[v.idx()].extend(to_vec(m.point(v)));
+  cluster_tree(vertex_keys, SolverArrays::kVertCluster, item_box, s.vert_tree, s.vcl_begin, s.vcl_items, s.vcl_leaf);
 
   s.cand_start.assign(n, 0);
   s.cand_count.assign(n, 0);

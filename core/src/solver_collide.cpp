@@ -221,9 +221,21 @@ struct PairCollector : btDbvt::ICollide {
   const SolverArrays* s;
   double th;
   std::vector<SolverArrays::SelfPair>* out;
+  const btDbvtVolume *vert_live, *tri_live;  // each item's box in this search, in cluster order
+  // A cluster of vertices against a cluster of triangles whose boxes meet: the items' boxes, each
+  // against each (a flat loop; an item taking no part has an empty box, which meets nothing).
   void Process(const btDbvtNode* a, const btDbvtNode* b) override {
-    const int v = static_cast<int>(reinterpret_cast<std::intptr_t>(a->data));
-    const int t = static_cast<int>(reinterpret_cast<std::intptr_t>(b->data));
+    const int cv = static_cast<int>(reinterpret_cast<std::intptr_t>(a->data));
+    const int ct = static_cast<int>(reinterpret_cast<std::intptr_t>(b->data));
+    const int t0 = s->tcl_begin[ct], t1 = s->tcl_begin[ct + 1];
+    for (int p = s->vcl_begin[cv]; p < s->vcl_begin[cv + 1]; ++p) {
+      const btDbvtVolume& vb = vert_live[p];
+      if (!Intersect(vb, b->volume)) continue;
+      for (int q = t0; q < t1; ++q)
+        if (Intersect(vb, tri_live[q])) pair(s->vcl_items[p], s->tcl_items[q]);
+    }
+  }
+  void pair(int v, int t) {
     const auto& tri = s->tris[t];
     if (s->w[v] == 0 && s->w[tri[0]] == 0 && s->w[tri[1]] == 0 && s->w[tri[2]] == 0) return;
     // Skip the triangles of the vertex and of its neighbours: they are close at rest.
@@ -273,8 +285,8 @@ struct PairCollector : btDbvt::ICollide {
 //
 // Only pairs with a moving vertex can do anything: those of a moving vertex with any triangle, and
 // those of a held vertex (a pin, outside the local region) with a triangle that has a moving
-// corner. Each kind is one intersection of the two trees, with the leaves that cannot be in it
-// given an empty box (which never meets anything and leaves its parent's box as it is), so that a
+// corner. Each kind is one intersection of the two trees, with the items that cannot be in it
+// given an empty box (which never meets anything and leaves its cluster's box as it is), so that a
 // region of 1,000 moving vertices searches what 1,000 vertices need; when everything moves, the
 // second search is not run, nor when the held vertices are few (pins): then one search of
 // everything costs less.
@@ -287,7 +299,22 @@ const btDbvtVolume kNothing =
 
 bool is_nothing(const btDbvtVolume& v) { return v.Mins().x() > v.Maxs().x(); }
 
-void collide_trees(SolverArrays& s, double thickness) {
+// The pairs of the items with a box in this search (vert_live, tri_live: in cluster order); each
+// cluster leaf gets the box around its items' boxes.
+void collide_trees(SolverArrays& s, double thickness, const std::vector<btDbvtVolume>& vert_live,
+                   const std::vector<btDbvtVolume>& tri_live) {
+  auto cluster_boxes = [](const std::vector<int>& begin, const std::vector<btDbvtVolume>& live,
+                          std::vector<btDbvtNode*>& leaf) {
+    parallel::for_range(static_cast<int>(leaf.size()), 256, [&](int c0, int c1) {
+      for (int c = c0; c < c1; ++c) {
+        btDbvtVolume b = kNothing;
+        for (int k = begin[c]; k < begin[c + 1]; ++k) Merge(b, live[k], b);
+        leaf[c]->volume = b;
+      }
+    });
+  };
+  cluster_boxes(s.tcl_begin, tri_live, s.tcl_leaf);
+  cluster_boxes(s.vcl_begin, vert_live, s.vcl_leaf);
   refit(s.tri_tree.m_root);
   refit(s.vert_tree.m_root);
   if (is_nothing(s.vert_tree.m_root->volume) || is_nothing(s.tri_tree.m_root->volume)) return;
@@ -316,6 +343,8 @@ void collide_trees(SolverArrays& s, double thickness) {
       pc.s = &s;
       pc.th = thickness;
       pc.out = &s.self_gather[r];
+      pc.vert_live = vert_live.data();
+      pc.tri_live = tri_live.data();
       s.vert_tree.collideTT(roots[r], s.tri_tree.m_root, pc);
     }
   });
@@ -340,64 +369,61 @@ void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale)
   // A few held vertices (pins): one search of everything costs less than two; the leaves get their
   // boxes as they are computed.
   const bool one_search = 10 * held < nm;
-  // The boxes of what the window sweeps: every triangle's, and every vertex's.
-  s.tri_box.resize(s.tris.size());
-  parallel::for_range(static_cast<int>(s.tris.size()), 2048, [&](int b0, int e0) {
-    for (int t = b0; t < e0; ++t) {
+  // The boxes of what the window sweeps: every triangle's, and every vertex's (in cluster order).
+  const int nt = static_cast<int>(s.tcl_items.size()), nv = static_cast<int>(s.vcl_items.size());
+  s.tri_box.resize(nt);
+  parallel::for_range(nt, 2048, [&](int b0, int e0) {
+    for (int q = b0; q < e0; ++q) {
       Box3 b;
-      for (int k = 0; k < 3; ++k) {
-        const int u = s.tris[t][k];
+      for (int u : s.tris[s.tcl_items[q]]) {
         b.extend(s.x[u]);
         b.extend(Vec3(s.x[u] + s.win[u] - c));
       }
-      s.tri_box[t] = to_bt(b);
-      if (one_search) s.tri_leaf[t]->volume = s.tri_box[t];
+      s.tri_box[q] = to_bt(b);
     }
   });
-  s.vert_box.resize(s.n);
-  parallel::for_range(static_cast<int>(s.n), 2048, [&](int b0, int e0) {
-    for (int i = b0; i < e0; ++i) {
-      if (!s.vert_leaf[i]) continue;
-      s.vert_box[i] = to_bt(swept_box(s, s.win, s.surprise_self, surprise_scale, i, std::min(thickness, 0.6 * s.spacing[i]), 0.1, c));
-      if (one_search) s.vert_leaf[i]->volume = s.vert_box[i];
+  s.vert_box.resize(nv);
+  parallel::for_range(nv, 2048, [&](int b0, int e0) {
+    for (int p = b0; p < e0; ++p) {
+      const int i = s.vcl_items[p];
+      s.vert_box[p] = to_bt(swept_box(s, s.win, s.surprise_self, surprise_scale, i, std::min(thickness, 0.6 * s.spacing[i]), 0.1, c));
     }
   });
   if (one_search) {
-    collide_trees(s, thickness);
+    collide_trees(s, thickness, s.vert_box, s.tri_box);
     s.last_self_pairs = s.self_pairs.size();
     return;
   }
   // What the moving vertices sweep, and what the triangles with a moving corner sweep: nothing
   // outside these can be in a pair.
+  auto moving_tri = [&](int q) {
+    const auto& tri = s.tris[s.tcl_items[q]];
+    return M[tri[0]] || M[tri[1]] || M[tri[2]];
+  };
   btDbvtVolume moving_bound = kNothing, active_bound = kNothing;
-  for (std::size_t i = 0; i < s.n; ++i)
-    if (M[i]) Merge(moving_bound, s.vert_box[i], moving_bound);
-  for (std::size_t t = 0; t < s.tris.size(); ++t) {
-    const auto& tri = s.tris[t];
-    if (M[tri[0]] || M[tri[1]] || M[tri[2]]) Merge(active_bound, s.tri_box[t], active_bound);
-  }
-  auto set_leaves = [&](bool of_moving, const btDbvtVolume& within) {
-    parallel::for_range(static_cast<int>(s.n), 2048, [&](int b0, int e0) {
-      for (int i = b0; i < e0; ++i)
-        if (s.vert_leaf[i])
-          s.vert_leaf[i]->volume =
-              ((M[i] != 0) == of_moving && Intersect(s.vert_box[i], within)) ? s.vert_box[i] : kNothing;
+  for (int p = 0; p < nv; ++p)
+    if (M[s.vcl_items[p]]) Merge(moving_bound, s.vert_box[p], moving_bound);
+  for (int q = 0; q < nt; ++q)
+    if (moving_tri(q)) Merge(active_bound, s.tri_box[q], active_bound);
+  s.tri_live.resize(nt);
+  s.vert_live.resize(nv);
+  auto set_live = [&](bool of_moving, const btDbvtVolume& within) {
+    parallel::for_range(nv, 2048, [&](int b0, int e0) {
+      for (int p = b0; p < e0; ++p)
+        s.vert_live[p] = ((M[s.vcl_items[p]] != 0) == of_moving && Intersect(s.vert_box[p], within)) ? s.vert_box[p] : kNothing;
     });
-    parallel::for_range(static_cast<int>(s.tris.size()), 2048, [&](int b0, int e0) {
-      for (int t = b0; t < e0; ++t) {
-        const auto& tri = s.tris[t];
-        const bool may = of_moving || M[tri[0]] || M[tri[1]] || M[tri[2]];
-        s.tri_leaf[t]->volume = (may && Intersect(s.tri_box[t], within)) ? s.tri_box[t] : kNothing;
-      }
+    parallel::for_range(nt, 2048, [&](int b0, int e0) {
+      for (int q = b0; q < e0; ++q)
+        s.tri_live[q] = ((of_moving || moving_tri(q)) && Intersect(s.tri_box[q], within)) ? s.tri_box[q] : kNothing;
     });
   };
   // Moving vertices against all triangles (those within their reach).
-  set_leaves(true, moving_bound);
-  collide_trees(s, thickness);
+  set_live(true, moving_bound);
+  collide_trees(s, thickness, s.vert_live, s.tri_live);
   // Held vertices (those within reach of a moving triangle) against the triangles with a moving
   // corner.
-  set_leaves(false, active_bound);
-  collide_trees(s, thickness);
+  set_live(false, active_bound);
+  collide_trees(s, thickness, s.vert_live, s.tri_live);
   s.last_self_pairs = s.self_pairs.size();
 }
 

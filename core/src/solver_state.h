@@ -126,9 +126,15 @@ struct SolverArrays {
   };
   std::vector<Gather> gather;
 
-  // ---- self collision (btDbvt of cloth triangles and of vertices, refitted every step) ----
+  // ---- self collision: two btDbvt trees, refitted at each gather, whose leaves are clusters of
+  // nearby vertices and of nearby triangles (runs in Morton order); cluster c holds the items
+  // *_items[*_begin[c] .. *_begin[c + 1]). A leaf per item made the trees' own traversal most of a
+  // gather's cost (20 leaf overlaps a vertex at rest, nearly all its own neighbourhood); a leaf
+  // per cluster tests its items' boxes in a flat loop instead. ----
+  static constexpr int kVertCluster = 8, kTriCluster = 8;
   btDbvt tri_tree, vert_tree;
-  std::vector<btDbvtNode*> tri_leaf, vert_leaf;
+  std::vector<int> vcl_begin, vcl_items, tcl_begin, tcl_items;
+  std::vector<btDbvtNode*> vcl_leaf, tcl_leaf;
   struct SelfPair {
     int v, t;
     double side;  // +1 / -1: the side of the triangle the vertex was on when the pair was gathered
@@ -136,7 +142,9 @@ struct SolverArrays {
   };
   std::vector<SelfPair> self_pairs;
   std::vector<std::vector<SelfPair>> self_gather;  // one list per vertex subtree, joined in order
-  std::vector<btDbvtVolume> tri_box, vert_box;  // what each triangle and vertex sweeps in the window
+  // What each triangle and vertex sweeps in the window, and the box it takes part in this search
+  // with (its own, or none), both in cluster order (indexed as *_items).
+  std::vector<btDbvtVolume> tri_box, vert_box, tri_live, vert_live;
   // Per vertex, for skipping far pairs: the length of its path since the pairs were gathered, up
   // to the last substep, and up to now (path + this substep's motion + the self-collision pushes).
   std::vector<double> path, reach;

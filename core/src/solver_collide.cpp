@@ -19,6 +19,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 namespace kiji::solver_detail {
 
@@ -221,30 +225,55 @@ struct PairCollector : btDbvt::ICollide {
   const SolverArrays* s;
   double th;
   std::vector<SolverArrays::SelfPair>* out;
-  const btDbvtVolume *vert_live, *tri_live;  // each item's box in this search, in cluster order
   // A cluster of vertices against a cluster of triangles whose boxes meet: the items' boxes, each
-  // against each (a flat loop; an item taking no part has an empty box, which meets nothing).
+  // vertex's against the cluster's triangles' (an item taking no part has an empty box, which
+  // meets nothing).
   void Process(const btDbvtNode* a, const btDbvtNode* b) override {
     const int cv = static_cast<int>(reinterpret_cast<std::intptr_t>(a->data));
     const int ct = static_cast<int>(reinterpret_cast<std::intptr_t>(b->data));
     const int t0 = s->tcl_begin[ct], t1 = s->tcl_begin[ct + 1];
+    const SolverArrays::TriClusterBoxes& tb = s->tri_live_f[ct];
+    const unsigned present = (1u << (t1 - t0)) - 1;
     for (int p = s->vcl_begin[cv]; p < s->vcl_begin[cv + 1]; ++p) {
-      const btDbvtVolume& vb = vert_live[p];
-      if (!Intersect(vb, b->volume)) continue;
-      for (int q = t0; q < t1; ++q)
-        if (Intersect(vb, tri_live[q])) pair(s->vcl_items[p], s->tcl_items[q]);
+      unsigned hits = meets(s->vert_live_f[p], tb) & present;
+      if (!hits) continue;
+      // Not the triangles of the vertex and of its neighbours: they are close at rest.
+      for (int k = s->excl_begin[p]; k < s->excl_begin[p + 1]; ++k)
+        if (s->excl_cluster[k] == ct) {
+          hits &= ~unsigned(s->excl_mask[k]);
+          break;
+        }
+      for (; hits; hits &= hits - 1) pair(s->vcl_items[p], s->tcl_items[t0 + __builtin_ctz(hits)]);
     }
+  }
+  // Bit k: the vertex's box meets the cluster's triangle k's (without a branch per box: whether
+  // two boxes meet is a coin toss here, and mispredicted branches were most of a gather).
+  static unsigned meets(const SolverArrays::FloatBox& v, const SolverArrays::TriClusterBoxes& t) {
+    static_assert(SolverArrays::kTriCluster == 8, "a triangle cluster's boxes are two vectors of four");
+#if defined(__SSE2__)
+    unsigned m = 0;
+    for (int half = 0; half < 2; ++half) {
+      __m128 in = _mm_castsi128_ps(_mm_set1_epi32(-1));
+      for (int a = 0; a < 3; ++a) {
+        in = _mm_and_ps(in, _mm_cmple_ps(_mm_set1_ps(v.lo[a]), _mm_load_ps(&t.hi[a][4 * half])));
+        in = _mm_and_ps(in, _mm_cmpge_ps(_mm_set1_ps(v.hi[a]), _mm_load_ps(&t.lo[a][4 * half])));
+      }
+      m |= unsigned(_mm_movemask_ps(in)) << (4 * half);
+    }
+    return m;
+#else
+    unsigned m = 0;
+    for (int k = 0; k < SolverArrays::kTriCluster; ++k) {
+      bool in = true;
+      for (int a = 0; a < 3; ++a) in &= (v.lo[a] <= t.hi[a][k]) & (v.hi[a] >= t.lo[a][k]);
+      m |= unsigned(in) << k;
+    }
+    return m;
+#endif
   }
   void pair(int v, int t) {
     const auto& tri = s->tris[t];
     if (s->w[v] == 0 && s->w[tri[0]] == 0 && s->w[tri[1]] == 0 && s->w[tri[2]] == 0) return;
-    // Skip the triangles of the vertex and of its neighbours: they are close at rest.
-    for (int k = 0; k < 3; ++k) {
-      const int u = tri[k];
-      if (u == v) return;
-      for (int q = s->nbr_begin[v]; q < s->nbr_begin[v + 1]; ++q)
-        if (s->nbr[q] == u) return;
-    }
     const Vec3& A = s->x[tri[0]];
     const Vec3& B = s->x[tri[1]];
     const Vec3& C = s->x[tri[2]];
@@ -304,17 +333,43 @@ bool is_nothing(const btDbvtVolume& v) { return v.Mins().x() > v.Maxs().x(); }
 void collide_trees(SolverArrays& s, double thickness, const std::vector<btDbvtVolume>& vert_live,
                    const std::vector<btDbvtVolume>& tri_live) {
   auto cluster_boxes = [](const std::vector<int>& begin, const std::vector<btDbvtVolume>& live,
-                          std::vector<btDbvtNode*>& leaf) {
+                          std::vector<btDbvtNode*>& leaf, auto&& store) {
     parallel::for_range(static_cast<int>(leaf.size()), 256, [&](int c0, int c1) {
       for (int c = c0; c < c1; ++c) {
         btDbvtVolume b = kNothing;
-        for (int k = begin[c]; k < begin[c + 1]; ++k) Merge(b, live[k], b);
+        for (int k = begin[c]; k < begin[c + 1]; ++k) {
+          Merge(b, live[k], b);
+          store(c, k - begin[c], k, live[k]);
+        }
         leaf[c]->volume = b;
       }
     });
   };
-  cluster_boxes(s.tcl_begin, tri_live, s.tcl_leaf);
-  cluster_boxes(s.vcl_begin, vert_live, s.vcl_leaf);
+  // Rounded outwards: a float box holds the double one (an empty box stays empty).
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  auto down = [&](double x) {
+    const float f = static_cast<float>(x);
+    return double(f) > x ? std::nextafter(f, -kInf) : f;
+  };
+  auto up = [&](double x) {
+    const float f = static_cast<float>(x);
+    return double(f) < x ? std::nextafter(f, kInf) : f;
+  };
+  s.tri_live_f.resize(s.tcl_leaf.size());
+  s.vert_live_f.resize(vert_live.size());
+  cluster_boxes(s.tcl_begin, tri_live, s.tcl_leaf, [&](int c, int slot, int, const btDbvtVolume& b) {
+    SolverArrays::TriClusterBoxes& t = s.tri_live_f[c];
+    if (slot == 0)
+      for (int a = 0; a < 3; ++a)
+        for (int k = 0; k < SolverArrays::kTriCluster; ++k) t.lo[a][k] = kInf, t.hi[a][k] = -kInf;
+    if (is_nothing(b)) return;
+    for (int a = 0; a < 3; ++a) t.lo[a][slot] = down(b.Mins()[a]), t.hi[a][slot] = up(b.Maxs()[a]);
+  });
+  cluster_boxes(s.vcl_begin, vert_live, s.vcl_leaf, [&](int, int, int k, const btDbvtVolume& b) {
+    SolverArrays::FloatBox& v = s.vert_live_f[k];
+    for (int a = 0; a < 3; ++a)
+      v.lo[a] = is_nothing(b) ? kInf : down(b.Mins()[a]), v.hi[a] = is_nothing(b) ? -kInf : up(b.Maxs()[a]);
+  });
   refit(s.tri_tree.m_root);
   refit(s.vert_tree.m_root);
   if (is_nothing(s.vert_tree.m_root->volume) || is_nothing(s.tri_tree.m_root->volume)) return;
@@ -343,8 +398,6 @@ void collide_trees(SolverArrays& s, double thickness, const std::vector<btDbvtVo
       pc.s = &s;
       pc.th = thickness;
       pc.out = &s.self_gather[r];
-      pc.vert_live = vert_live.data();
-      pc.tri_live = tri_live.data();
       s.vert_tree.collideTT(roots[r], s.tri_tree.m_root, pc);
     }
   });

@@ -135,6 +135,23 @@ struct SolverArrays {
   btDbvt tri_tree, vert_tree;
   std::vector<int> vcl_begin, vcl_items, tcl_begin, tcl_items;
   std::vector<btDbvtNode*> vcl_leaf, tcl_leaf;
+  // Per vertex (in cluster order, as vcl_items): the triangles it is never paired with, those with
+  // a corner at it or at a neighbour (close at rest), as bits of their clusters: the masks
+  // excl_mask[k] of the triangle clusters excl_cluster[k], k in [excl_begin[p], excl_begin[p + 1]).
+  // About 20 triangles a vertex, most of the boxes it meets: testing them was most of a gather.
+  std::vector<int> excl_begin, excl_cluster;
+  std::vector<std::uint8_t> excl_mask;
+  // The live boxes of a search again, in floats rounded outwards, a triangle cluster's side by side
+  // (its boxes are tested against a vertex's all at once).
+  struct FloatBox {
+    float lo[3], hi[3];
+  };
+  struct TriClusterBoxes {
+    alignas(16) float lo[3][kTriCluster];
+    alignas(16) float hi[3][kTriCluster];
+  };
+  std::vector<FloatBox> vert_live_f;
+  std::vector<TriClusterBoxes> tri_live_f;
   struct SelfPair {
     int v, t;
     double side;  // +1 / -1: the side of the triangle the vertex was on when the pair was gathered

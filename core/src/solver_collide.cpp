@@ -345,16 +345,11 @@ void collide_trees(SolverArrays& s, double thickness, const std::vector<btDbvtVo
       }
     });
   };
-  // Rounded outwards: a float box holds the double one (an empty box stays empty).
+  // Widened before rounding by more than a float's rounding error (2^-24 of the value), so that a
+  // float box holds the double one; an empty box stays empty.
   constexpr float kInf = std::numeric_limits<float>::infinity();
-  auto down = [&](double x) {
-    const float f = static_cast<float>(x);
-    return double(f) > x ? std::nextafter(f, -kInf) : f;
-  };
-  auto up = [&](double x) {
-    const float f = static_cast<float>(x);
-    return double(f) < x ? std::nextafter(f, kInf) : f;
-  };
+  auto down = [](double x) { return static_cast<float>(x - std::abs(x) * 1e-6); };
+  auto up = [](double x) { return static_cast<float>(x + std::abs(x) * 1e-6); };
   s.tri_live_f.resize(s.tcl_leaf.size());
   s.vert_live_f.resize(vert_live.size());
   cluster_boxes(s.tcl_begin, tri_live, s.tcl_leaf, [&](int c, int slot, int, const btDbvtVolume& b) {

@@ -49,11 +49,6 @@ Box3 swept_box(const SolverArrays& s, const std::vector<Vec3>& motion, const std
   return Box3(a.cwiseMin(b) - Vec3::Constant(e), a.cwiseMax(b) + Vec3::Constant(e));
 }
 
-btDbvtVolume to_bt(const Box3& b) {
-  return btDbvtVolume::FromMM(btVector3(b.min().x(), b.min().y(), b.min().z()),
-                              btVector3(b.max().x(), b.max().y(), b.max().z()));
-}
-
 void refit(btDbvtNode* node) {
   if (node->isleaf()) return;
   refit(node->childs[0]);
@@ -225,6 +220,7 @@ struct PairCollector : btDbvt::ICollide {
   const SolverArrays* s;
   double th;
   std::vector<SolverArrays::SelfPair>* out;
+  const SolverArrays::FloatBox* vert_live;  // each vertex's box in this search, in cluster order
   // A cluster of vertices against a cluster of triangles whose boxes meet: the items' boxes, each
   // vertex's against the cluster's triangles' (an item taking no part has an empty box, which
   // meets nothing).
@@ -232,10 +228,10 @@ struct PairCollector : btDbvt::ICollide {
     const int cv = static_cast<int>(reinterpret_cast<std::intptr_t>(a->data));
     const int ct = static_cast<int>(reinterpret_cast<std::intptr_t>(b->data));
     const int t0 = s->tcl_begin[ct], t1 = s->tcl_begin[ct + 1];
-    const SolverArrays::TriClusterBoxes& tb = s->tri_live_f[ct];
+    const SolverArrays::TriClusterBoxes& tb = s->tri_cluster_live[ct];
     const unsigned present = (1u << (t1 - t0)) - 1;
     for (int p = s->vcl_begin[cv]; p < s->vcl_begin[cv + 1]; ++p) {
-      unsigned hits = meets(s->vert_live_f[p], tb) & present;
+      unsigned hits = meets(vert_live[p], tb) & present;
       if (!hits) continue;
       // Not the triangles of the vertex and of its neighbours: they are close at rest.
       for (int k = s->excl_begin[p]; k < s->excl_begin[p + 1]; ++k)
@@ -323,47 +319,65 @@ struct PairCollector : btDbvt::ICollide {
 // tree on its own (in parallel) into its own list; the lists are joined in subtree order, the same
 // for any number of threads.
 namespace {
+using FloatBox = SolverArrays::FloatBox;
+constexpr float kInf = std::numeric_limits<float>::infinity();
+const FloatBox kNoBox{{kInf, kInf, kInf}, {-kInf, -kInf, -kInf}};
 const btDbvtVolume kNothing =
     btDbvtVolume::FromMM(btVector3(1e300, 1e300, 1e300), btVector3(-1e300, -1e300, -1e300));
 
 bool is_nothing(const btDbvtVolume& v) { return v.Mins().x() > v.Maxs().x(); }
+bool is_nothing(const FloatBox& b) { return b.lo[0] > b.hi[0]; }
+
+// Widened before rounding by more than a float's rounding error (2^-24 of the value), so that the
+// float box holds the double one.
+FloatBox to_float(const Box3& b) {
+  FloatBox f;
+  for (int a = 0; a < 3; ++a) {
+    f.lo[a] = static_cast<float>(b.min()[a] - std::abs(b.min()[a]) * 1e-6);
+    f.hi[a] = static_cast<float>(b.max()[a] + std::abs(b.max()[a]) * 1e-6);
+  }
+  return f;
+}
+
+bool meet(const FloatBox& a, const FloatBox& b) {
+  return a.lo[0] <= b.hi[0] && b.lo[0] <= a.hi[0] && a.lo[1] <= b.hi[1] && b.lo[1] <= a.hi[1] &&
+         a.lo[2] <= b.hi[2] && b.lo[2] <= a.hi[2];
+}
+
+void merge(FloatBox& a, const FloatBox& b) {
+  for (int k = 0; k < 3; ++k) a.lo[k] = std::min(a.lo[k], b.lo[k]), a.hi[k] = std::max(a.hi[k], b.hi[k]);
+}
+
+btDbvtVolume to_volume(const FloatBox& b) {
+  return is_nothing(b) ? kNothing
+                       : btDbvtVolume::FromMM(btVector3(b.lo[0], b.lo[1], b.lo[2]), btVector3(b.hi[0], b.hi[1], b.hi[2]));
+}
 
 // The pairs of the items with a box in this search (vert_live, tri_live: in cluster order); each
-// cluster leaf gets the box around its items' boxes.
-void collide_trees(SolverArrays& s, double thickness, const std::vector<btDbvtVolume>& vert_live,
-                   const std::vector<btDbvtVolume>& tri_live) {
-  auto cluster_boxes = [](const std::vector<int>& begin, const std::vector<btDbvtVolume>& live,
-                          std::vector<btDbvtNode*>& leaf, auto&& store) {
-    parallel::for_range(static_cast<int>(leaf.size()), 256, [&](int c0, int c1) {
-      for (int c = c0; c < c1; ++c) {
-        btDbvtVolume b = kNothing;
-        for (int k = begin[c]; k < begin[c + 1]; ++k) {
-          Merge(b, live[k], b);
-          store(c, k - begin[c], k, live[k]);
-        }
-        leaf[c]->volume = b;
+// cluster leaf gets the box around its items' boxes, and each triangle cluster its items' boxes
+// side by side.
+void collide_trees(SolverArrays& s, double thickness, const std::vector<FloatBox>& vert_live,
+                   const std::vector<FloatBox>& tri_live) {
+  s.tri_cluster_live.resize(s.tcl_leaf.size());
+  parallel::for_range(static_cast<int>(s.tcl_leaf.size()), 256, [&](int c0, int c1) {
+    for (int c = c0; c < c1; ++c) {
+      SolverArrays::TriClusterBoxes& t = s.tri_cluster_live[c];
+      FloatBox all = kNoBox;
+      for (int k = 0; k < SolverArrays::kTriCluster; ++k) {
+        const int q = s.tcl_begin[c] + k;
+        const FloatBox& b = q < s.tcl_begin[c + 1] ? tri_live[q] : kNoBox;
+        for (int a = 0; a < 3; ++a) t.lo[a][k] = b.lo[a], t.hi[a][k] = b.hi[a];
+        merge(all, b);
       }
-    });
-  };
-  // Widened before rounding by more than a float's rounding error (2^-24 of the value), so that a
-  // float box holds the double one; an empty box stays empty.
-  constexpr float kInf = std::numeric_limits<float>::infinity();
-  auto down = [](double x) { return static_cast<float>(x - std::abs(x) * 1e-6); };
-  auto up = [](double x) { return static_cast<float>(x + std::abs(x) * 1e-6); };
-  s.tri_live_f.resize(s.tcl_leaf.size());
-  s.vert_live_f.resize(vert_live.size());
-  cluster_boxes(s.tcl_begin, tri_live, s.tcl_leaf, [&](int c, int slot, int, const btDbvtVolume& b) {
-    SolverArrays::TriClusterBoxes& t = s.tri_live_f[c];
-    if (slot == 0)
-      for (int a = 0; a < 3; ++a)
-        for (int k = 0; k < SolverArrays::kTriCluster; ++k) t.lo[a][k] = kInf, t.hi[a][k] = -kInf;
-    if (is_nothing(b)) return;
-    for (int a = 0; a < 3; ++a) t.lo[a][slot] = down(b.Mins()[a]), t.hi[a][slot] = up(b.Maxs()[a]);
+      s.tcl_leaf[c]->volume = to_volume(all);
+    }
   });
-  cluster_boxes(s.vcl_begin, vert_live, s.vcl_leaf, [&](int, int, int k, const btDbvtVolume& b) {
-    SolverArrays::FloatBox& v = s.vert_live_f[k];
-    for (int a = 0; a < 3; ++a)
-      v.lo[a] = is_nothing(b) ? kInf : down(b.Mins()[a]), v.hi[a] = is_nothing(b) ? -kInf : up(b.Maxs()[a]);
+  parallel::for_range(static_cast<int>(s.vcl_leaf.size()), 256, [&](int c0, int c1) {
+    for (int c = c0; c < c1; ++c) {
+      FloatBox all = kNoBox;
+      for (int p = s.vcl_begin[c]; p < s.vcl_begin[c + 1]; ++p) merge(all, vert_live[p]);
+      s.vcl_leaf[c]->volume = to_volume(all);
+    }
   });
   refit(s.tri_tree.m_root);
   refit(s.vert_tree.m_root);
@@ -393,6 +407,7 @@ void collide_trees(SolverArrays& s, double thickness, const std::vector<btDbvtVo
       pc.s = &s;
       pc.th = thickness;
       pc.out = &s.self_gather[r];
+      pc.vert_live = vert_live.data();
       s.vert_tree.collideTT(roots[r], s.tri_tree.m_root, pc);
     }
   });
@@ -427,14 +442,14 @@ void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale)
         b.extend(s.x[u]);
         b.extend(Vec3(s.x[u] + s.win[u] - c));
       }
-      s.tri_box[q] = to_bt(b);
+      s.tri_box[q] = to_float(b);
     }
   });
   s.vert_box.resize(nv);
   parallel::for_range(nv, 2048, [&](int b0, int e0) {
     for (int p = b0; p < e0; ++p) {
       const int i = s.vcl_items[p];
-      s.vert_box[p] = to_bt(swept_box(s, s.win, s.surprise_self, surprise_scale, i, std::min(thickness, 0.6 * s.spacing[i]), 0.1, c));
+      s.vert_box[p] = to_float(swept_box(s, s.win, s.surprise_self, surprise_scale, i, std::min(thickness, 0.6 * s.spacing[i]), 0.1, c));
     }
   });
   if (one_search) {
@@ -448,21 +463,21 @@ void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale)
     const auto& tri = s.tris[s.tcl_items[q]];
     return M[tri[0]] || M[tri[1]] || M[tri[2]];
   };
-  btDbvtVolume moving_bound = kNothing, active_bound = kNothing;
+  FloatBox moving_bound = kNoBox, active_bound = kNoBox;
   for (int p = 0; p < nv; ++p)
-    if (M[s.vcl_items[p]]) Merge(moving_bound, s.vert_box[p], moving_bound);
+    if (M[s.vcl_items[p]]) merge(moving_bound, s.vert_box[p]);
   for (int q = 0; q < nt; ++q)
-    if (moving_tri(q)) Merge(active_bound, s.tri_box[q], active_bound);
+    if (moving_tri(q)) merge(active_bound, s.tri_box[q]);
   s.tri_live.resize(nt);
   s.vert_live.resize(nv);
-  auto set_live = [&](bool of_moving, const btDbvtVolume& within) {
+  auto set_live = [&](bool of_moving, const FloatBox& within) {
     parallel::for_range(nv, 2048, [&](int b0, int e0) {
       for (int p = b0; p < e0; ++p)
-        s.vert_live[p] = ((M[s.vcl_items[p]] != 0) == of_moving && Intersect(s.vert_box[p], within)) ? s.vert_box[p] : kNothing;
+        s.vert_live[p] = ((M[s.vcl_items[p]] != 0) == of_moving && meet(s.vert_box[p], within)) ? s.vert_box[p] : kNoBox;
     });
     parallel::for_range(nt, 2048, [&](int b0, int e0) {
       for (int q = b0; q < e0; ++q)
-        s.tri_live[q] = ((of_moving || moving_tri(q)) && Intersect(s.tri_box[q], within)) ? s.tri_box[q] : kNothing;
+        s.tri_live[q] = ((of_moving || moving_tri(q)) && meet(s.tri_box[q], within)) ? s.tri_box[q] : kNoBox;
     });
   };
   // Moving vertices against all triangles (those within their reach).

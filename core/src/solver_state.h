@@ -141,8 +141,8 @@ struct SolverArrays {
   // About 20 triangles a vertex, most of the boxes it meets: testing them was most of a gather.
   std::vector<int> excl_begin, excl_cluster;
   std::vector<std::uint8_t> excl_mask;
-  // The live boxes of a search again, in floats rounded outwards, a triangle cluster's side by side
-  // (its boxes are tested against a vertex's all at once).
+  // Boxes in floats rounded outwards (an empty one: lo > hi); a triangle cluster's side by side for
+  // a search (tested against a vertex's all at once).
   struct FloatBox {
     float lo[3], hi[3];
   };
@@ -150,8 +150,7 @@ struct SolverArrays {
     alignas(16) float lo[3][kTriCluster];
     alignas(16) float hi[3][kTriCluster];
   };
-  std::vector<FloatBox> vert_live_f;
-  std::vector<TriClusterBoxes> tri_live_f;
+  std::vector<TriClusterBoxes> tri_cluster_live;
   struct SelfPair {
     int v, t;
     double side;  // +1 / -1: the side of the triangle the vertex was on when the pair was gathered
@@ -161,7 +160,7 @@ struct SolverArrays {
   std::vector<std::vector<SelfPair>> self_gather;  // one list per vertex subtree, joined in order
   // What each triangle and vertex sweeps in the window, and the box it takes part in this search
   // with (its own, or none), both in cluster order (indexed as *_items).
-  std::vector<btDbvtVolume> tri_box, vert_box, tri_live, vert_live;
+  std::vector<FloatBox> tri_box, vert_box, tri_live, vert_live;
   // Per vertex, for skipping far pairs: the length of its path since the pairs were gathered, up
   // to the last substep, and up to now (path + this substep's motion + the self-collision pushes).
   std::vector<double> path, reach;

@@ -8,8 +8,9 @@
 //    sweeps more than kFastSweep in a step (a flick of the pen) keeps none: a box that large holds
 //    thousands of triangles, each tested every substep; it is tested instead against what its box
 //    of each substep's motion meets, found in the tree then (resolve_escaped);
-//  - self: two Bullet btDbvt trees (cloth vertices, cloth triangles), refitted to the swept boxes
-//    at each gather and intersected with each other, give vertex-triangle pairs; pairs that cannot
+//  - self: two Bullet btDbvt trees (leaves: clusters of 8 cloth vertices, of 8 cloth triangles),
+//    refitted to the swept boxes at each gather and intersected with each other, give vertex-
+//    triangle pairs (a vertex never with the triangles of its own neighbourhood); pairs that cannot
 //    come within the thickness during the window are dropped, and each keeps the side it started
 //    on. The window is the whole step for cloth at rest and a few substeps for cloth moving fast
 //    relative to itself (self_window in solver_xpbd.cpp).
@@ -231,7 +232,7 @@ struct PairCollector : btDbvt::ICollide {
     const SolverArrays::TriClusterBoxes& tb = s->tri_cluster_live[ct];
     const unsigned present = (1u << (t1 - t0)) - 1;
     for (int p = s->vcl_begin[cv]; p < s->vcl_begin[cv + 1]; ++p) {
-      unsigned hits = meets(vert_live[p], tb) & present;
+      unsigned hits = meets_cluster(vert_live[p], tb) & present;
       if (!hits) continue;
       // Not the triangles of the vertex and of its neighbours: they are close at rest.
       for (int k = s->excl_begin[p]; k < s->excl_begin[p + 1]; ++k)
@@ -244,7 +245,7 @@ struct PairCollector : btDbvt::ICollide {
   }
   // Bit k: the vertex's box meets the cluster's triangle k's (without a branch per box: whether
   // two boxes meet is a coin toss here, and mispredicted branches were most of a gather).
-  static unsigned meets(const SolverArrays::FloatBox& v, const SolverArrays::TriClusterBoxes& t) {
+  static unsigned meets_cluster(const SolverArrays::FloatBox& v, const SolverArrays::TriClusterBoxes& t) {
     static_assert(SolverArrays::kTriCluster == 8, "a triangle cluster's boxes are two vectors of four");
 #if defined(__SSE2__)
     unsigned m = 0;

@@ -365,6 +365,46 @@ void build_tree(btDbvt& tree, const std::vector<std::pair<std::uint32_t, int>>& 
   tree.m_leaves = static_cast<int>(keys.size());
 }
 
+// The triangles each vertex is never paired with in self-collision (those with a corner at it or
+// at a neighbour), as masks over their clusters (SolverArrays::excl_*).
+void build_self_exclusions(SolverArrays& s) {
+  static_assert(SolverArrays::kTriCluster <= 8, "a cluster's triangles are bits of one byte");
+  const std::size_t n = s.n;
+  std::vector<int> tri_slot(s.tris.size()), inc_begin(n + 1, 0), inc;
+  for (std::size_t q = 0; q < s.tcl_items.size(); ++q) tri_slot[s.tcl_items[q]] = static_cast<int>(q);
+  for (const auto& t : s.tris)
+    for (int u : t) ++inc_begin[u + 1];
+  for (std::size_t i = 0; i < n; ++i) inc_begin[i + 1] += inc_begin[i];
+  inc.resize(inc_begin[n]);
+  std::vector<int> fill(inc_begin.begin(), inc_begin.end() - 1);
+  for (std::size_t t = 0; t < s.tris.size(); ++t)
+    for (int u : s.tris[t]) inc[fill[u]++] = static_cast<int>(t);
+  s.excl_begin.assign(1, 0);
+  s.excl_cluster.clear();
+  s.excl_mask.clear();
+  std::vector<std::pair<int, int>> near;  // (cluster, bit)
+  for (int v : s.vcl_items) {
+    near.clear();
+    auto add = [&](int u) {
+      for (int k = inc_begin[u]; k < inc_begin[u + 1]; ++k) {
+        const int q = tri_slot[inc[k]];
+        near.emplace_back(q / SolverArrays::kTriCluster, q % SolverArrays::kTriCluster);
+      }
+    };
+    add(v);
+    for (int k = s.nbr_begin[v]; k < s.nbr_begin[v + 1]; ++k) add(s.nbr[k]);
+    std::sort(near.begin(), near.end());
+    for (std::size_t k = 0; k < near.size(); ++k) {
+      if (k == 0 || near[k].first != near[k - 1].first) {
+        s.excl_cluster.push_back(near[k].first);
+        s.excl_mask.push_back(0);
+      }
+      s.excl_mask.back() |= std::uint8_t(1u << near[k].second);
+    }
+    s.excl_begin.push_back(static_cast<int>(s.excl_cluster.size()));
+  }
+}
+
 double heron(double a, double b, double c) {
   const double s = 0.5 * (a + b + c);
   const double q = s * (s - a) * (s - b) * (s - c);
@@ -535,43 +575,7 @@ void rebuild(SolverArrays& s, const Garment& g) {
   item_box.assign(n, Box3());
   for (Vertex v : m.vertices()) item_box[v.idx()].extend(to_vec(m.point(v)));
   cluster_tree(vertex_keys, SolverArrays::kVertCluster, item_box, s.vert_tree, s.vcl_begin, s.vcl_items, s.vcl_leaf);
-  // The triangles each vertex is never paired with, by cluster.
-  static_assert(SolverArrays::kTriCluster <= 8, "a cluster's triangles are bits of one byte");
-  {
-    std::vector<int> tri_slot(s.tris.size()), inc_begin(n + 1, 0), inc;
-    for (std::size_t q = 0; q < s.tcl_items.size(); ++q) tri_slot[s.tcl_items[q]] = static_cast<int>(q);
-    for (const auto& t : s.tris)
-      for (int u : t) ++inc_begin[u + 1];
-    for (std::size_t i = 0; i < n; ++i) inc_begin[i + 1] += inc_begin[i];
-    inc.resize(inc_begin[n]);
-    std::vector<int> fill(inc_begin.begin(), inc_begin.end() - 1);
-    for (std::size_t t = 0; t < s.tris.size(); ++t)
-      for (int u : s.tris[t]) inc[fill[u]++] = static_cast<int>(t);
-    s.excl_begin.assign(1, 0);
-    s.excl_cluster.clear();
-    s.excl_mask.clear();
-    std::vector<std::pair<int, int>> near;  // (cluster, bit)
-    for (int v : s.vcl_items) {
-      near.clear();
-      auto add = [&](int u) {
-        for (int k = inc_begin[u]; k < inc_begin[u + 1]; ++k) {
-          const int q = tri_slot[inc[k]];
-          near.emplace_back(q / SolverArrays::kTriCluster, q % SolverArrays::kTriCluster);
-        }
-      };
-      add(v);
-      for (int k = s.nbr_begin[v]; k < s.nbr_begin[v + 1]; ++k) add(s.nbr[k]);
-      std::sort(near.begin(), near.end());
-      for (std::size_t k = 0; k < near.size(); ++k) {
-        if (k == 0 || near[k].first != near[k - 1].first) {
-          s.excl_cluster.push_back(near[k].first);
-          s.excl_mask.push_back(0);
-        }
-        s.excl_mask.back() |= std::uint8_t(1u << near[k].second);
-      }
-      s.excl_begin.push_back(static_cast<int>(s.excl_cluster.size()));
-    }
-  }
+  build_self_exclusions(s);
 
   s.cand_start.assign(n, 0);
   s.cand_count.assign(n, 0);

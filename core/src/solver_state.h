@@ -98,7 +98,8 @@ struct SolverArrays {
   std::vector<Attach> attach;
   std::vector<std::array<int, 2>> tacks;
   std::vector<int> over;  // edges beyond the strain limit this substep
-  std::vector<std::vector<int>> over_pieces;
+  std::vector<std::vector<int>> over_pieces;  // the scan's pieces (over_counts of each in use)
+  std::vector<int> over_counts;
   std::vector<int> over_runs;  // where each colour starts in `over`
 
   // ---- faces and adjacency ----

@@ -171,6 +171,11 @@ void resolve_body_against(SolverArrays& s, int i, double th, double mu, const in
     }
     if (dn <= -th) continue;
     if (dp < -th) continue;  // it came from deep behind (inside, or beyond a thin part): leave it
+    // The thickness or more from the triangle's box on an axis: as far from the triangle. Most
+    // candidates of a vertex resting on the body are its triangle's neighbours, nearly in its plane
+    // but beside it.
+    const Box3& tb = s.body_boxes[c[k]];
+    if ((x - tb.max()).maxCoeff() >= th || (tb.min() - x).maxCoeff() >= th) continue;
     const geom::ClosestPoint cp = geom::closest_on_triangle(x, T.a, T.b, T.c);
     const Vec3 d = x - cp.point;
     const double d2 = d.squaredNorm();

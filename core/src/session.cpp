@@ -3,8 +3,10 @@
 #include "geometry.h"
 #include "kiji/error.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <vector>
 
 namespace kiji {
 
@@ -84,18 +86,40 @@ SurfaceHit Session::pick(const Vec3& position, const Vec3& ray) const {
   if (!all_finite(position) || !all_finite(ray)) return best;
   const bool use_ray = ray.squaredNorm() > 0;
   const Vec3 dir = use_ray ? Vec3(ray.normalized()) : Vec3::Zero();
+  const double reach = 1e3;
+  // Each vertex's side of the ray's line (or of the box within pick_radius of the point), in a
+  // mask of six bits: a triangle whose three corners share a bit is wholly to one side, missed,
+  // with no test of its own. The few left are tested exactly.
+  Vec3 e1 = Vec3::UnitX(), e2 = Vec3::UnitY(), e3 = Vec3::UnitZ();
+  if (use_ray) {
+    e3 = dir;
+    e1 = dir.unitOrthogonal();
+    e2 = e3.cross(e1);
+  }
+  const Vec3 lo = use_ray ? Vec3(0, 0, 0) : Vec3::Constant(-pick_radius);
+  const Vec3 hi = use_ray ? Vec3(0, 0, reach) : Vec3::Constant(pick_radius);
   for (std::size_t gi = 0; gi < garments_.size(); ++gi) {
     const Garment& g = garments_[gi];
     const Mesh& m = g.mesh();
+    std::vector<unsigned char> side(g.vertex_capacity(), 0);
+    for (Vertex v : m.vertices()) {
+      const Vec3 r = g.position(v) - position;
+      const Vec3 q(r.dot(e1), r.dot(e2), r.dot(e3));
+      const double tol = 1e-9 * (1 + r.cwiseAbs().maxCoeff());  // the projections' rounding, well covered
+      unsigned char bits = 0;
+      for (int k = 0; k < 3; ++k)
+        bits |= static_cast<unsigned char>(((q[k] < lo[k] - tol) << (2 * k)) | ((q[k] > hi[k] + tol) << (2 * k + 1)));
+      side[v.idx()] = bits;
+    }
     for (Face f : m.faces()) {
       Halfedge h0 = m.halfedge(f);
       const Halfedge h1 = m.next(h0), h2 = m.next(h1);
+      if (side[m.target(h0).idx()] & side[m.target(h1).idx()] & side[m.target(h2).idx()]) continue;
       const Vec3 a = g.position(m.target(h0)), b = g.position(m.target(h1)), c = g.position(m.target(h2));
       Vec3 point, bary;
       double distance;
       if (use_ray) {
         double t = 0;
-        const double reach = 1e3;
         if (!geom::segment_crosses_triangle(position, position + reach * dir, a, b, c, t)) continue;
         point = position + t * reach * dir;
         const geom::ClosestPoint cp = geom::closest_on_triangle(point, a, b, c);

@@ -3,12 +3,15 @@
 #include "kiji/render.h"
 
 #include "kiji/error.h"
+#include "parallel.h"
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <sstream>
+#include <vector>
 
 namespace kiji {
 
@@ -45,11 +48,13 @@ const ColorTables& tables() {
   return t;
 }
 
-// A corner ready for the rasteriser: camera-space position and normal, and its uv.
+// A corner ready for the rasteriser: camera-space position and normal, its uv, and where it falls
+// on the screen.
 struct Corner {
   V3 p;  // camera space: x right, y up, z forward (depth)
   V3 n;
   V2 uv;
+  V3 s;  // pixel x, pixel y, 1 / depth (for corners in front of the near plane)
 };
 
 struct View {
@@ -58,6 +63,10 @@ struct View {
   V3 to_camera(const Vec3& w) const {
     const V3 d = w.cast<float>() - eye;
     return {d.dot(right), d.dot(up), d.dot(forward)};
+  }
+  V3 to_screen(const V3& p) const {
+    const float iz = 1.0f / p.z();
+    return {cx + focal * p.x() * iz, cy - focal * p.y() * iz, iz};
   }
   V3 dir_to_camera(const Vec3& w) const {
     const V3 d = w.cast<float>();
@@ -78,9 +87,10 @@ class Raster {
         color_(static_cast<std::size_t>(width) * height * 3, 0.0f),
         covered_(static_cast<std::size_t>(width) * height, 0) {}
 
-  // Clips the triangle against the near plane (a fan of at most two triangles), then fills it.
-  void triangle(const Corner& a, const Corner& b, const Corner& c, const Surface& s) {
-    if (a.p.z() >= kNear && b.p.z() >= kNear && c.p.z() >= kNear) return fill(a, b, c, s);
+  // Clips the triangle against the near plane (a fan of at most two triangles), then fills its
+  // pixels in rows [row0, row1): threads drawing disjoint bands of rows share the raster.
+  void triangle(const Corner& a, const Corner& b, const Corner& c, const Surface& s, int row0, int row1) {
+    if (a.p.z() >= kNear && b.p.z() >= kNear && c.p.z() >= kNear) return fill(a, b, c, s, row0, row1);
     const Corner in[3] = {a, b, c};
     Corner out[4];
     int n = 0;
@@ -91,11 +101,14 @@ class Raster {
       if (p_in) out[n++] = p;
       if (p_in != q_in) {
         const float t = (kNear - p.p.z()) / (q.p.z() - p.p.z());
-        out[n++] = Corner{p.p + t * (q.p - p.p), p.n + t * (q.n - p.n), p.uv + t * (q.uv - p.uv)};
+        const V3 at = p.p + t * (q.p - p.p);
+        out[n++] = Corner{at, p.n + t * (q.n - p.n), p.uv + t * (q.uv - p.uv), view_.to_screen(at)};
       }
     }
-    for (int i = 1; i + 1 < n; ++i) fill(out[0], out[i], out[i + 1], s);
+    for (int i = 1; i + 1 < n; ++i) fill(out[0], out[i], out[i + 1], s, row0, row1);
   }
+
+  int height() const { return h_; }
 
   Image finish() const {
     Image img;
@@ -143,13 +156,13 @@ class Raster {
     return c;
   }
 
-  void fill(const Corner& a, const Corner& b, const Corner& c, const Surface& s) {
+  void fill(const Corner& a, const Corner& b, const Corner& c, const Surface& s, int row0, int row1) {
     const Corner* v[3] = {&a, &b, &c};
     float sx[3], sy[3], iz[3];
     for (int i = 0; i < 3; ++i) {
-      iz[i] = 1.0f / v[i]->p.z();
-      sx[i] = view_.cx + view_.focal * v[i]->p.x() * iz[i];
-      sy[i] = view_.cy - view_.focal * v[i]->p.y() * iz[i];
+      sx[i] = v[i]->s.x();
+      sy[i] = v[i]->s.y();
+      iz[i] = v[i]->s.z();
       if (!std::isfinite(sx[i]) || !std::isfinite(sy[i])) return;
     }
     const float area = (sx[1] - sx[0]) * (sy[2] - sy[0]) - (sx[2] - sx[0]) * (sy[1] - sy[0]);
@@ -157,8 +170,8 @@ class Raster {
     const float inv_area = 1.0f / area;
     const int x_min = std::max(0, static_cast<int>(std::floor(std::min({sx[0], sx[1], sx[2]}))));
     const int x_max = std::min(w_ - 1, static_cast<int>(std::ceil(std::max({sx[0], sx[1], sx[2]}))));
-    const int y_min = std::max(0, static_cast<int>(std::floor(std::min({sy[0], sy[1], sy[2]}))));
-    const int y_max = std::min(h_ - 1, static_cast<int>(std::ceil(std::max({sy[0], sy[1], sy[2]}))));
+    const int y_min = std::max(row0, static_cast<int>(std::floor(std::min({sy[0], sy[1], sy[2]}))));
+    const int y_max = std::min(row1 - 1, static_cast<int>(std::ceil(std::max({sy[0], sy[1], sy[2]}))));
     if (x_min > x_max || y_min > y_max) return;
 
     // Attributes divided by depth interpolate linearly on screen (perspective-correct).
@@ -261,54 +274,121 @@ Image render(const std::vector<const Garment*>& garments, const Body* body, cons
   const View view = make_view(camera, width, height);
   Raster raster(width, height, view);
 
+  // The image is drawn in bands of rows, in parallel: each triangle in the bands its rows reach,
+  // in drawing order within each, which gives the same picture as drawing all of it in one.
+  const int bands = std::min({height, 4 * parallel::thread_count(), 128});
+  std::vector<std::uint8_t> band_of_row(height);
+  for (int y = 0; y < height; ++y) band_of_row[y] = static_cast<std::uint8_t>(std::int64_t(y) * bands / height);
+
+  // Every surface's corners in camera space and on the screen, and its triangles in drawing order
+  // (the body, then each garment in turn), each with the first and last band it reaches.
+  struct Part {
+    std::vector<V3> p, n, s;              // a vertex's position, normal and screen point
+    const Garment* garment = nullptr;     // its uv (by halfedge), if it has a texture
+    Surface surface;
+  };
+  struct Tri {
+    int part;
+    int v[3];
+    int h[3];  // halfedges, for the uv
+  };
+  std::vector<Part> parts;
+  std::vector<Tri> tris;
+  std::vector<std::array<std::uint8_t, 2>> reach;  // the first and last band; first > last: none
+  tris.reserve((body ? body->triangles().size() : 0) + [&] {
+    std::size_t f = 0;
+    for (const Garment* g : garments) f += g->mesh().number_of_faces();
+    return f;
+  }());
+  reach.reserve(tris.capacity());
+  auto add = [&](const Part& part, const Tri& t) {
+    float lo = std::numeric_limits<float>::max(), hi = -lo;
+    bool all_in_front = true;
+    for (int k = 0; k < 3; ++k) {
+      if (!(part.p[t.v[k]].z() >= kNear)) all_in_front = false;
+      lo = std::min(lo, part.s[t.v[k]].y());
+      hi = std::max(hi, part.s[t.v[k]].y());
+    }
+    std::array<std::uint8_t, 2> r{0, static_cast<std::uint8_t>(bands - 1)};  // clipped at the near plane: all
+    if (all_in_front) {
+      if (!(hi >= 0 && lo <= height)) return;  // off the screen, or not finite
+      r[0] = band_of_row[std::clamp(static_cast<int>(std::floor(lo)) - 1, 0, height - 1)];
+      r[1] = band_of_row[std::clamp(static_cast<int>(std::ceil(hi)) + 1, 0, height - 1)];
+    }
+    tris.push_back(t);
+    reach.push_back(r);
+  };
   if (body) {
     const auto& vs = body->vertices();
-    std::vector<V3> p(vs.size());
+    Part part;
+    part.p.resize(vs.size());
+    part.n.resize(vs.size());
+    part.s.resize(vs.size());
     std::vector<Vec3> n(vs.size(), Vec3::Zero());
     for (const auto& t : body->triangles()) {
       const Vec3 fn = (vs[t[1]] - vs[t[0]]).cross(vs[t[2]] - vs[t[0]]);
       for (int k = 0; k < 3; ++k) n[t[k]] += fn;
     }
-    std::vector<V3> nc(vs.size());
     for (std::size_t i = 0; i < vs.size(); ++i) {
-      p[i] = view.to_camera(vs[i]);
-      nc[i] = view.dir_to_camera(n[i]);
+      part.p[i] = view.to_camera(vs[i]);
+      part.n[i] = view.dir_to_camera(n[i]);
+      part.s[i] = view.to_screen(part.p[i]);
     }
-    const Surface s{nullptr, kBodyColor.cast<float>()};
-    for (const auto& t : body->triangles())
-      raster.triangle(Corner{p[t[0]], nc[t[0]], V2::Zero()}, Corner{p[t[1]], nc[t[1]], V2::Zero()},
-                      Corner{p[t[2]], nc[t[2]], V2::Zero()}, s);
+    part.surface = Surface{nullptr, kBodyColor.cast<float>()};
+    for (const auto& t : body->triangles()) add(part, {0, {int(t[0]), int(t[1]), int(t[2])}, {-1, -1, -1}});
+    parts.push_back(std::move(part));
   }
-
   for (const Garment* g : garments) {
     const Mesh& m = g->mesh();
-    std::vector<V3> p(g->vertex_capacity());
+    Part part;
+    part.p.resize(g->vertex_capacity());
+    part.s.resize(g->vertex_capacity());
     std::vector<Vec3> n(g->vertex_capacity(), Vec3::Zero());
-    for (Vertex v : m.vertices()) p[v] = view.to_camera(g->position(v));
-    for (Face f : m.faces()) {
-      const Halfedge h = m.halfedge(f);
-      const Vertex a = m.source(h), b = m.target(h), c = m.target(m.next(h));
-      const Vec3 fn = (g->position(b) - g->position(a)).cross(g->position(c) - g->position(a));
-      n[a] += fn;
-      n[b] += fn;
-      n[c] += fn;
+    for (Vertex v : m.vertices()) {
+      part.p[v] = view.to_camera(g->position(v));
+      part.s[v] = view.to_screen(part.p[v]);
     }
-    std::vector<V3> nc(n.size());
-    for (Vertex v : m.vertices()) nc[v] = view.dir_to_camera(n[v]);
-    const bool textured = !g->texture().empty() &&
-                          g->texture().rgba.size() == static_cast<std::size_t>(g->texture().width) * g->texture().height * 4;
-    const Surface s{textured ? &g->texture() : nullptr, g->color.cast<float>()};
+    const int id = static_cast<int>(parts.size());
     for (Face f : m.faces()) {
-      Corner c[3];
+      Tri t{id, {}, {}};
       int k = 0;
       for (Halfedge h : CGAL::halfedges_around_face(m.halfedge(f), m)) {
         if (k == 3) break;
-        const Vertex v = m.target(h);
-        c[k++] = Corner{p[v], nc[v], g->uv(h).cast<float>()};
+        t.v[k] = static_cast<int>(m.target(h).idx());
+        t.h[k++] = static_cast<int>(h.idx());
       }
-      if (k == 3) raster.triangle(c[0], c[1], c[2], s);
+      if (k != 3) continue;
+      const Vec3 a = g->position(Vertex(t.v[0])), b = g->position(Vertex(t.v[1])), c = g->position(Vertex(t.v[2]));
+      const Vec3 fn = (b - a).cross(c - a);
+      for (int q = 0; q < 3; ++q) n[t.v[q]] += fn;
+      add(part, t);
     }
+    part.n.resize(n.size());
+    for (Vertex v : m.vertices()) part.n[v] = view.dir_to_camera(n[v]);
+    const bool textured = !g->texture().empty() &&
+                          g->texture().rgba.size() == static_cast<std::size_t>(g->texture().width) * g->texture().height * 4;
+    part.surface = Surface{textured ? &g->texture() : nullptr, g->color.cast<float>()};
+    if (textured) part.garment = g;
+    parts.push_back(std::move(part));
   }
+
+  parallel::for_range(bands, 1, [&](int b0, int b1) {
+    for (int b = b0; b < b1; ++b) {
+      const int row0 = static_cast<int>((std::int64_t(b) * height + bands - 1) / bands);
+      const int row1 = static_cast<int>((std::int64_t(b + 1) * height + bands - 1) / bands);
+      for (std::size_t t = 0; t < tris.size(); ++t) {
+        if (b < reach[t][0] || b > reach[t][1]) continue;
+        const Tri& tri = tris[t];
+        const Part& part = parts[tri.part];
+        Corner c[3];
+        for (int k = 0; k < 3; ++k) {
+          const V2 uv = part.garment ? V2(part.garment->uv(Halfedge(tri.h[k])).cast<float>()) : V2::Zero();
+          c[k] = Corner{part.p[tri.v[k]], part.n[tri.v[k]], uv, part.s[tri.v[k]]};
+        }
+        raster.triangle(c[0], c[1], c[2], part.surface, row0, row1);
+      }
+    }
+  });
   return raster.finish();
 }
 

@@ -461,6 +461,7 @@ void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale)
   if (one_search) {
     collide_trees(s, thickness, s.vert_box, s.tri_box);
     s.last_self_pairs = s.self_pairs.size();
+    partition_self_pairs(s);
     return;
   }
   // What the moving vertices sweep, and what the triangles with a moving corner sweep: nothing
@@ -494,67 +495,132 @@ void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale)
   set_live(false, active_bound);
   collide_trees(s, thickness, s.vert_live, s.tri_live);
   s.last_self_pairs = s.self_pairs.size();
+  partition_self_pairs(s);
+}
+
+namespace {
+
+// One pair: pushes the vertex and the triangle apart to the thickness.
+inline void resolve_pair(SolverArrays& s, const SolverArrays::SelfPair& p, double thickness) {
+  double* R = s.reach.data();
+  const auto& tri = s.tris[p.t];
+  // The distance from a point to a triangle changes no faster than the point and the triangle's
+  // corners move: a pair that started further apart than the thickness plus everything its four
+  // vertices have moved since (pushes included) cannot be within it, nor have crossed. Many pairs
+  // gathered for a window with large relative motion (cloth landing, a pinch) end here.
+  if (p.d0 - R[p.v] - std::max({R[tri[0]], R[tri[1]], R[tri[2]]}) > thickness) return;
+  Vec3& xv = s.x[p.v];
+  Vec3& A = s.x[tri[0]];
+  Vec3& B = s.x[tri[1]];
+  Vec3& C = s.x[tri[2]];
+  // On a mesh finer than the thickness, the triangles just beyond the vertex's neighbours are
+  // closer than the thickness at rest: keep the pair's distance below the rest spacing.
+  const double th = std::min(thickness, 0.6 * s.spacing[p.v]);
+  Vec3 n = (B - A).cross(C - A);
+  const double len = n.norm();
+  if (!(len > 1e-20)) return;
+  n *= p.side / len;
+  const geom::ClosestPoint cp = geom::closest_on_triangle(xv, A, B, C);
+  const Vec3 d = xv - cp.point;
+  const double dn = d.dot(n);
+  const double d2 = d.squaredNorm();
+  Vec3 dir;
+  double depth;
+  const bool over = cp.b0 > 1e-9 && cp.b1 > 1e-9 && cp.b2 > 1e-9;
+  bool crossed = false;
+  if (dn < 0 && over) {
+    // Over the triangle on the wrong side: did it cross during this substep (it was on the
+    // right side at the substep's start)? Going round the triangle's edge is not a crossing.
+    const Vec3& pA = s.xp[tri[0]];
+    const Vec3 pn = (s.xp[tri[1]] - pA).cross(s.xp[tri[2]] - pA) * p.side;
+    crossed = (s.xp[p.v] - pA).dot(pn) >= 0;
+  }
+  if (crossed) {
+    dir = n;  // back to the side it started on
+    depth = th - dn;
+  } else {
+    if (d2 >= th * th) return;
+    const double dist = std::sqrt(d2);
+    dir = dist > 1e-12 ? Vec3(d / dist) : n;
+    depth = th - dist;
+  }
+  const double wv = s.w[p.v], w0 = s.w[tri[0]], w1 = s.w[tri[1]], w2 = s.w[tri[2]];
+  const double denom = wv + cp.b0 * cp.b0 * w0 + cp.b1 * cp.b1 * w1 + cp.b2 * cp.b2 * w2;
+  if (!(denom > 0)) return;
+  // At most half the thickness per substep: a deeper push turns into a velocity kick (x - xp) / h
+  // that other contacts then push back against; spread over substeps it stays stable.
+  const double lambda = std::min(depth, 0.5 * th) / denom;
+  xv += (wv * lambda) * dir;
+  A -= (w0 * cp.b0 * lambda) * dir;
+  B -= (w1 * cp.b1 * lambda) * dir;
+  C -= (w2 * cp.b2 * lambda) * dir;
+  R[p.v] += wv * lambda;
+  R[tri[0]] += w0 * cp.b0 * lambda;
+  R[tri[1]] += w1 * cp.b1 * lambda;
+  R[tri[2]] += w2 * cp.b2 * lambda;
+}
+
+}  // namespace
+
+// The pairs in slabs across the cloth's longest side, each with as many pairs: a pair whose four
+// vertices (the vertex and the triangle's corners) are all in one slab shares none with a pair of
+// another slab, and the slabs are resolved in parallel, each in the gathered order; the pairs
+// across two slabs after them, in sequence. The slabs do not depend on the thread count, nor so
+// the result.
+void partition_self_pairs(SolverArrays& s) {
+  const std::size_t np = s.self_pairs.size();
+  s.self_runs.assign(1, 0);
+  if (np < kParallelSelfPairs) {  // too few to be worth it: in sequence, as gathered
+    s.self_runs.push_back(static_cast<int>(np));
+    s.self_runs_serial_from = 0;
+    return;
+  }
+  Box3 box;
+  for (const auto& p : s.self_pairs) box.extend(s.x[p.v]);
+  int axis = 0;
+  box.sizes().maxCoeff(&axis);
+  std::vector<double>& key = s.pair_key;
+  key.resize(np);
+  for (std::size_t q = 0; q < np; ++q) key[q] = s.x[s.self_pairs[q].v][axis];
+  double bound[kSelfSlabs - 1];
+  for (int k = 1; k < kSelfSlabs; ++k) {
+    auto at = key.begin() + static_cast<std::ptrdiff_t>(np * k / kSelfSlabs);
+    std::nth_element(key.begin(), at, key.end());
+    bound[k - 1] = *at;
+  }
+  auto slab = [&](int v) {
+    return static_cast<int>(std::upper_bound(bound, bound + kSelfSlabs - 1, s.x[v][axis]) - bound);
+  };
+  s.pair_slab.resize(np);
+  int count[kSelfSlabs + 1] = {0};
+  for (std::size_t q = 0; q < np; ++q) {
+    const auto& p = s.self_pairs[q];
+    const auto& tri = s.tris[p.t];
+    const int k = slab(p.v);
+    const int c = (slab(tri[0]) == k && slab(tri[1]) == k && slab(tri[2]) == k) ? k : kSelfSlabs;
+    s.pair_slab[q] = static_cast<unsigned char>(c);
+    ++count[c];
+  }
+  int at[kSelfSlabs + 1] = {0};
+  for (int c = 0; c < kSelfSlabs; ++c) at[c + 1] = at[c] + count[c];
+  s.pair_scratch.resize(np);
+  for (std::size_t q = 0; q < np; ++q) s.pair_scratch[at[s.pair_slab[q]]++] = s.self_pairs[q];
+  s.self_pairs.swap(s.pair_scratch);
+  for (int c = 0; c < kSelfSlabs; ++c) s.self_runs.push_back(at[c]);
+  s.self_runs_serial_from = kSelfSlabs;
+  s.self_runs.push_back(static_cast<int>(np));
 }
 
 void resolve_self(SolverArrays& s, double thickness) {
-  double* R = s.reach.data();
-  for (const auto& p : s.self_pairs) {
-    const auto& tri = s.tris[p.t];
-    // The distance from a point to a triangle changes no faster than the point and the triangle's
-    // corners move: a pair that started further apart than the thickness plus everything its four
-    // vertices have moved since (pushes included) cannot be within it, nor have crossed. Many pairs
-    // gathered for a window with large relative motion (cloth landing, a pinch) end here.
-    if (p.d0 - R[p.v] - std::max({R[tri[0]], R[tri[1]], R[tri[2]]}) > thickness) continue;
-    Vec3& xv = s.x[p.v];
-    Vec3& A = s.x[tri[0]];
-    Vec3& B = s.x[tri[1]];
-    Vec3& C = s.x[tri[2]];
-    // On a mesh finer than the thickness, the triangles just beyond the vertex's neighbours are
-    // closer than the thickness at rest: keep the pair's distance below the rest spacing.
-    const double th = std::min(thickness, 0.6 * s.spacing[p.v]);
-    Vec3 n = (B - A).cross(C - A);
-    const double len = n.norm();
-    if (!(len > 1e-20)) continue;
-    n *= p.side / len;
-    const geom::ClosestPoint cp = geom::closest_on_triangle(xv, A, B, C);
-    const Vec3 d = xv - cp.point;
-    const double dn = d.dot(n);
-    const double d2 = d.squaredNorm();
-    Vec3 dir;
-    double depth;
-    const bool over = cp.b0 > 1e-9 && cp.b1 > 1e-9 && cp.b2 > 1e-9;
-    bool crossed = false;
-    if (dn < 0 && over) {
-      // Over the triangle on the wrong side: did it cross during this substep (it was on the
-      // right side at the substep's start)? Going round the triangle's edge is not a crossing.
-      const Vec3& pA = s.xp[tri[0]];
-      const Vec3 pn = (s.xp[tri[1]] - pA).cross(s.xp[tri[2]] - pA) * p.side;
-      crossed = (s.xp[p.v] - pA).dot(pn) >= 0;
-    }
-    if (crossed) {
-      dir = n;  // back to the side it started on
-      depth = th - dn;
-    } else {
-      if (d2 >= th * th) continue;
-      const double dist = std::sqrt(d2);
-      dir = dist > 1e-12 ? Vec3(d / dist) : n;
-      depth = th - dist;
-    }
-    const double wv = s.w[p.v], w0 = s.w[tri[0]], w1 = s.w[tri[1]], w2 = s.w[tri[2]];
-    const double denom = wv + cp.b0 * cp.b0 * w0 + cp.b1 * cp.b1 * w1 + cp.b2 * cp.b2 * w2;
-    if (!(denom > 0)) continue;
-    // At most half the thickness per substep: a deeper push turns into a velocity kick (x - xp) / h
-    // that other contacts then push back against; spread over substeps it stays stable.
-    const double lambda = std::min(depth, 0.5 * th) / denom;
-    xv += (wv * lambda) * dir;
-    A -= (w0 * cp.b0 * lambda) * dir;
-    B -= (w1 * cp.b1 * lambda) * dir;
-    C -= (w2 * cp.b2 * lambda) * dir;
-    R[p.v] += wv * lambda;
-    R[tri[0]] += w0 * cp.b0 * lambda;
-    R[tri[1]] += w1 * cp.b1 * lambda;
-    R[tri[2]] += w2 * cp.b2 * lambda;
-  }
+  if (s.self_runs.empty() || s.self_runs.back() != static_cast<int>(s.self_pairs.size())) partition_self_pairs(s);
+  const int runs = static_cast<int>(s.self_runs.size()) - 1;
+  const int together = std::min(runs, s.self_runs_serial_from);
+  parallel::for_range(together, 1, [&](int r0, int r1) {
+    for (int r = r0; r < r1; ++r)
+      for (int q = s.self_runs[r]; q < s.self_runs[r + 1]; ++q) resolve_pair(s, s.self_pairs[q], thickness);
+  });
+  for (int r = together; r < runs; ++r)
+    for (int q = s.self_runs[r]; q < s.self_runs[r + 1]; ++q) resolve_pair(s, s.self_pairs[q], thickness);
 }
 
 }  // namespace kiji::solver_detail

@@ -158,6 +158,14 @@ struct SolverArrays {
     double d0;    // their distance then
   };
   std::vector<SelfPair> self_pairs;
+  // The pairs in runs [self_runs[r], self_runs[r + 1]): those before self_runs_serial_from share
+  // no vertex with another run's and are resolved together; the rest in sequence (see
+  // partition_self_pairs).
+  std::vector<int> self_runs;
+  int self_runs_serial_from = 0;
+  std::vector<double> pair_key;
+  std::vector<unsigned char> pair_slab;
+  std::vector<SelfPair> pair_scratch;
   std::vector<std::vector<SelfPair>> self_gather;  // one list per vertex subtree, joined in order
   // What each triangle and vertex sweeps in the window, and the box it takes part in this search
   // with (its own, or none), both in cluster order (indexed as *_items).
@@ -204,6 +212,11 @@ void resolve_escaped(SolverArrays& s, const BodyCollider& collider, double thick
 // x), with the last step's surprise_self times surprise_scale as slack.
 void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale);
 void resolve_self(SolverArrays& s, double thickness);
+// Orders the gathered pairs in slabs for resolve_self (after each gather).
+void partition_self_pairs(SolverArrays& s);
+// Fewer pairs than this are resolved in sequence as gathered; more, in this many slabs.
+constexpr std::size_t kParallelSelfPairs = 16384;
+constexpr int kSelfSlabs = 4;
 // Sleeping (solver_sleep.cpp). Before a step, after the mesh is mirrored: wakes every block when the
 // physics changed or the arrays were rebuilt, and the blocks that `disturbed` marks; then clears
 // `moving` of the vertices asleep. After the step: wakes the sleeping neighbours of cloth that moved,

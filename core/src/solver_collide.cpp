@@ -581,7 +581,10 @@ void partition_self_pairs(SolverArrays& s) {
   box.sizes().maxCoeff(&axis);
   std::vector<double>& key = s.pair_key;
   key.resize(np);
-  for (std::size_t q = 0; q < np; ++q) key[q] = s.x[s.self_pairs[q].v][axis];
+  for (std::size_t q = 0; q < np; ++q) {
+    const double c = s.x[s.self_pairs[q].v][axis];
+    key[q] = std::isfinite(c) ? c : 0.0;  // a diverging vertex (caught after the step) keeps the sort sound
+  }
   double bound[kSelfSlabs - 1];
   for (int k = 1; k < kSelfSlabs; ++k) {
     auto at = key.begin() + static_cast<std::ptrdiff_t>(np * k / kSelfSlabs);

@@ -155,10 +155,10 @@ void limit_strain(SolverArrays& s, const Constraints& cs, double limit) {
         int* o = out.data();
         int count = 0;
         for (int k = k0; k < k1; ++k) {
-          const double r2 = cs.e_rest[k] * cs.e_rest[k];
+          const double r = cs.e_rest[k];
           const double l2 = (X[cs.e_i[k]] - X[cs.e_j[k]]).squaredNorm();
           o[count] = k;
-          count += int(l2 > hi2 * r2) | int(l2 < lo2 * r2);
+          count += int(l2 > hi2 * r * r) | int(l2 < lo2 * r * r);  // rounded as before: the same edges
         }
         s.over_counts[piece] = count;
       }

@@ -59,13 +59,14 @@ class Pool {
   }
   int threads() const { return threads_; }
 
-  void run(int n, int grain, void* ctx, RangeFn fn) {
+  // Runs fn over [0, n) in chunks of `grain` items or more (of exactly `grain` when `exact`).
+  void run(int n, int grain, void* ctx, RangeFn fn, bool exact = false) {
     std::unique_lock<std::mutex> region(region_, std::try_to_lock);
     if (!region.owns_lock() || workers_.empty()) {
       fn(ctx, 0, n);
       return;
     }
-    int chunk = std::max(grain, (n + 4 * threads_ - 1) / (4 * threads_));
+    int chunk = exact ? grain : std::max(grain, (n + 16 * threads_ - 1) / (16 * threads_));
     chunk = std::max(chunk, (n + kMaxChunks - 1) / kMaxChunks);
     const int chunks = (n + chunk - 1) / chunk;
     ctx_ = ctx;
@@ -151,6 +152,11 @@ int thread_count() {
 void for_range(int n, int grain, void* context, RangeFn fn) {
   if (n <= 0) return;
   pool().run(n, std::max(grain, 1), context, fn);
+}
+
+void for_each(int n, void* context, RangeFn fn) {
+  if (n <= 0) return;
+  pool().run(n, 1, context, fn, true);
 }
 
 }  // namespace kiji::parallel

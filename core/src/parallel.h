@@ -1,7 +1,9 @@
 // A small pool of worker threads for the solver's data-parallel loops, private to libkiji.
 //
 // for_range(n, grain, fn) calls fn(begin, end) on disjoint chunks covering [0, n), on the pool's
-// workers and on the calling thread, and returns when every chunk is done. The loops it runs are
+// workers and on the calling thread, and returns when every chunk is done. The chunks are of
+// `grain` items or more, and about 16 a thread at most: claimed one at a time, they let a thread
+// that drew cheap items take more (a loop's items differ in cost: contacts, blocks of a region). The loops it runs are
 // the ones whose iterations write disjoint data (constraints of one colour, one vertex each), so
 // the result is the same, bit for bit, whatever the number of threads.
 //
@@ -21,6 +23,7 @@ using RangeFn = void (*)(void* context, int begin, int end);
 
 int thread_count();
 void for_range(int n, int grain, void* context, RangeFn fn);
+void for_each(int n, void* context, RangeFn fn);
 
 template <typename F>
 void for_range(int n, int grain, F&& f) {
@@ -31,6 +34,21 @@ void for_range(int n, int grain, F&& f) {
   }
   for_range(n, grain, static_cast<void*>(&f),
             [](void* c, int b, int e) { (*static_cast<std::remove_reference_t<F>*>(c))(b, e); });
+}
+
+// Calls f(k) for each k in [0, n), each k a task of its own, claimed in order: for a few tasks of
+// uneven sizes (the cloth's blocks under a local region), put the largest first and the threads
+// end together.
+template <typename F>
+void for_each(int n, F&& f) {
+  if (n <= 0) return;
+  if (n == 1 || thread_count() <= 1) {
+    for (int k = 0; k < n; ++k) f(k);
+    return;
+  }
+  for_each(n, static_cast<void*>(&f), [](void* c, int b, int e) {
+    for (int k = b; k < e; ++k) (*static_cast<std::remove_reference_t<F>*>(c))(k);
+  });
 }
 
 }  // namespace kiji::parallel

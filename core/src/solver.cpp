@@ -457,7 +457,7 @@ void rebuild(SolverArrays& s, const Garment& g) {
   // of the cloth.
   constexpr int kBlockVertices = 1024;
   const int live = static_cast<int>(s.order.size());
-  s.blocks = std::clamp(live / kBlockVertices, 1, 64);
+  s.blocks = std::clamp(live / kBlockVertices, 1, SolverArrays::kMaxBlocks);
   s.block.assign(n, 0);
   for (int r = 0; r < live; ++r) s.block[s.order[r]] = static_cast<int>(std::int64_t(r) * s.blocks / live);
   std::vector<int> perm;

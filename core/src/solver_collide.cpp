@@ -94,37 +94,45 @@ void gather_body_candidates(SolverArrays& s, const BodyCollider& collider, doubl
       }
   });
   const int clusters = (nv + kCluster - 1) / kCluster;
-  // The clusters in a few contiguous pieces, each gathered on its own (in parallel) into its own
-  // lists, then joined in order: the same lists as one serial pass.
-  const int pieces = std::max(1, std::min(clusters / 16, 4 * parallel::thread_count()));
+  // The clusters in contiguous pieces of as many moving vertices each (a local region moves a
+  // few of the clusters), each gathered on its own (in parallel) into its own lists, then joined
+  // in order: the same lists as one serial pass.
+  int moving = 0;
+  for (int k = 0; k < nv; ++k) moving += s.moving[s.order[k]] != 0;
+  const int pieces = std::max(1, std::min({clusters / 4, 16 * parallel::thread_count(), moving / 64}));
   s.gather.resize(pieces);
-  parallel::for_range(pieces, 1, [&](int p0, int p1) {
-    for (int piece = p0; piece < p1; ++piece) {
-      SolverArrays::Gather& out = s.gather[piece];
-      out.cand.clear();
-      out.verts.clear();
-      const int first = static_cast<int>(std::int64_t(clusters) * piece / pieces);
-      const int last = static_cast<int>(std::int64_t(clusters) * (piece + 1) / pieces);
-      for (int cl = first; cl < last; ++cl) {
-        const int c0 = cl * kCluster, c1 = std::min(nv, c0 + kCluster);
-        Box3 cb;
-        for (int k = c0; k < c1; ++k) {
-          const int i = s.order[k];
-          if (s.moving[i]) cb.extend(s.box[i]);
-        }
-        if (cb.isEmpty() || !cb.intersects(s.body_bounds)) continue;
-        collider.triangles_in_box(cb, out.scratch);
-        if (out.scratch.empty()) continue;
-        for (int k = c0; k < c1; ++k) {
-          const int i = s.order[k];
-          if (!s.moving[i]) continue;
-          const Box3& vb = s.box[i];
-          s.cand_start[i] = static_cast<int>(out.cand.size());  // within the piece, shifted below
-          for (int t : out.scratch)
-            if (s.body_boxes[t].intersects(vb)) out.cand.push_back(t);
-          s.cand_count[i] = static_cast<int>(out.cand.size()) - s.cand_start[i];
-          if (s.cand_count[i] > 0) out.verts.push_back(i);
-        }
+  s.gather_cut.assign(1, 0);
+  for (int cl = 0, seen = 0; cl < clusters && static_cast<int>(s.gather_cut.size()) < pieces; ++cl) {
+    for (int k = cl * kCluster, e = std::min(nv, k + kCluster); k < e; ++k) seen += s.moving[s.order[k]] != 0;
+    if (std::int64_t(seen) * pieces >= std::int64_t(moving) * static_cast<int>(s.gather_cut.size()))
+      s.gather_cut.push_back(cl + 1);
+  }
+  s.gather_cut.resize(pieces, clusters);
+  s.gather_cut.push_back(clusters);
+  parallel::for_each(pieces, [&](int piece) {
+    SolverArrays::Gather& out = s.gather[piece];
+    out.cand.clear();
+    out.verts.clear();
+    const int first = s.gather_cut[piece], last = s.gather_cut[piece + 1];
+    for (int cl = first; cl < last; ++cl) {
+      const int c0 = cl * kCluster, c1 = std::min(nv, c0 + kCluster);
+      Box3 cb;
+      for (int k = c0; k < c1; ++k) {
+        const int i = s.order[k];
+        if (s.moving[i]) cb.extend(s.box[i]);
+      }
+      if (cb.isEmpty() || !cb.intersects(s.body_bounds)) continue;
+      collider.triangles_in_box(cb, out.scratch);
+      if (out.scratch.empty()) continue;
+      for (int k = c0; k < c1; ++k) {
+        const int i = s.order[k];
+        if (!s.moving[i]) continue;
+        const Box3& vb = s.box[i];
+        s.cand_start[i] = static_cast<int>(out.cand.size());  // within the piece, shifted below
+        for (int t : out.scratch)
+          if (s.body_boxes[t].intersects(vb)) out.cand.push_back(t);
+        s.cand_count[i] = static_cast<int>(out.cand.size()) - s.cand_start[i];
+        if (s.cand_count[i] > 0) out.verts.push_back(i);
       }
     }
   });

@@ -42,6 +42,7 @@ struct SolverArrays {
   //  - kSerial: the colouring's overflow (they may share vertices), solved in sequence.
   // The ranges one after the other: Gauss-Seidel, and the same result whatever the thread count.
   enum RangeKind : unsigned char { kFirstBlock, kBlock, kGroup, kSerial };
+  static constexpr int kMaxBlocks = 64;
   int blocks = 1;
   std::vector<int> block;             // per vertex: its block
 
@@ -126,6 +127,7 @@ struct SolverArrays {
     std::vector<int> cand, verts, scratch;
   };
   std::vector<Gather> gather;
+  std::vector<int> gather_cut;                    // the pieces' first clusters, and the end
 
   // ---- self collision: two btDbvt trees, refitted at each gather, whose leaves are clusters of
   // nearby vertices and of nearby triangles (runs in Morton order); cluster c holds the items

@@ -100,11 +100,14 @@ Constraints select_constraints(SolverArrays& s) {
           s.a_bends.data(), &s.ab_ranges, static_cast<int>(s.a_bends.size())};
 }
 
-constexpr int kVertexGrain = 2048, kConstraintGrain = 256, kContactGrain = 256;
+constexpr int kVertexGrain = 2048, kConstraintGrain = 256, kContactGrain = 32;
 
 // Runs f(begin, end) over the ranges [offsets[k], offsets[k + 1]) one after the other, each as its
 // kind says (see SolverArrays): a run of blocks together in parallel, each block in sequence; a
 // colour group in parallel pieces; the overflow group in sequence.
+// The blocks of a run are independent: they are handed to the threads one at a time, the largest
+// first (a local region fills some blocks and leaves the others empty), so the threads end
+// together.
 template <typename F>
 void run_ranges(const std::vector<int>& offsets, const std::vector<unsigned char>& kinds, F& f) {
   const int ranges = static_cast<int>(offsets.size()) - 1;
@@ -113,10 +116,19 @@ void run_ranges(const std::vector<int>& offsets, const std::vector<unsigned char
     if (kinds[k] == SolverArrays::kFirstBlock) {
       int last = k + 1;
       while (last < ranges && kinds[last] == SolverArrays::kBlock) ++last;
-      const int first = k;
-      parallel::for_range(last - first, 1, [&](int lo, int hi) {
-        for (int q = first + lo; q < first + hi; ++q) f(offsets[q], offsets[q + 1]);
-      });
+      int order[SolverArrays::kMaxBlocks];
+      int count = 0, total = 0;
+      for (int q = k; q < last; ++q)
+        if (offsets[q + 1] > offsets[q]) order[count++] = q, total += offsets[q + 1] - offsets[q];
+      if (total <= kConstraintGrain) {
+        for (int c = 0; c < count; ++c) f(offsets[order[c]], offsets[order[c] + 1]);
+      } else {
+        std::sort(order, order + count, [&](int x, int y) {
+          const int sx = offsets[x + 1] - offsets[x], sy = offsets[y + 1] - offsets[y];
+          return sx != sy ? sx > sy : x < y;
+        });
+        parallel::for_each(count, [&](int c) { f(offsets[order[c]], offsets[order[c] + 1]); });
+      }
       k = last;
       continue;
     }
@@ -143,7 +155,7 @@ void limit_strain(SolverArrays& s, const Constraints& cs, double limit) {
     // The scan in contiguous pieces (in parallel), each into its own list, joined in order.
     // Without a branch an edge: a sixth of the edges or more are beyond the limit in a garment
     // pulled taut, scattered, and a branch on each was mispredicted often.
-    const int pieces = std::max(1, std::min(16, ne / 4096));
+    const int pieces = std::max(1, std::min(32, ne / 1024));
     s.over_pieces.resize(pieces);
     s.over_counts.resize(pieces);
     parallel::for_range(pieces, 1, [&](int p0, int p1) {

@@ -230,19 +230,17 @@ static int self_window(const SolverArrays& s, const SolverParams& p, double th) 
   const int substeps = p.substeps;
   if (!p.self_collision || substeps == 1) return substeps;
   Vec3 c = Vec3::Zero();
-  std::size_t nm = 0;
+  const std::size_t nm = s.act.size();  // the moving vertices, in index order
   double spacing = 0;
-  for (std::size_t i = 0; i < s.n; ++i)
-    if (s.moving[i]) c += s.pred[i], spacing += s.spacing[i], ++nm;
+  for (int i : s.act) c += s.pred[i], spacing += s.spacing[i];
   if (nm == 0) return substeps;
   c /= double(nm);
   spacing /= double(nm);
   double su = 0, su2 = 0;  // sums of |u| and |u|^2 over the moving vertices, u = motion - mean
-  for (std::size_t i = 0; i < s.n; ++i)
-    if (s.moving[i]) {
-      const double u = (s.pred[i] - c).norm();
-      su += u, su2 += u * u;
-    }
+  for (int i : s.act) {
+    const double u = (s.pred[i] - c).norm();
+    su += u, su2 += u * u;
+  }
   const double r = std::min(th, 0.6 * spacing);
   const double own = 1.2 * spacing * spacing * double(nm);
   int best = substeps;
@@ -273,10 +271,12 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
   // would give every resting vertex g dt^2 = 2.7 mm more box (more candidates and pairs) for
   // nothing; on falling cloth the boxes' slack and the last step's surprise (|end - predicted
   // end|, which is then about g dt^2) cover it.
-  for (std::size_t i = 0; i < n; ++i) {
-    s.pred[i] = s.moving[i] ? Vec3(s.v[i] * dt + (s.w[i] * s.fext[i]) * (dt * dt)) : Vec3::Zero();
-    s.x0[i] = s.x[i];
-  }
+  parallel::for_range(static_cast<int>(n), kVertexGrain, [&](int b, int e) {
+    for (int i = b; i < e; ++i) {
+      s.pred[i] = s.moving[i] ? Vec3(s.v[i] * dt + (s.w[i] * s.fext[i]) * (dt * dt)) : Vec3::Zero();
+      s.x0[i] = s.x[i];
+    }
+  });
   if (body && !s.body_tris.empty())
     gather_body_candidates(s, *body, th);
   else
@@ -444,10 +444,8 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
   // and less the mean of it over the cloth (self-collision, culled in the frame of the cloth's
   // common motion: a falling cloth all misses its prediction by g dt^2 together).
   Vec3 common_miss = Vec3::Zero();
-  std::size_t nm = 0;
-  for (std::size_t i = 0; i < n; ++i)
-    if (s.moving[i]) common_miss += X[i] - s.x0[i] - s.pred[i], ++nm;
-  if (nm) common_miss /= double(nm);
+  for (int i : s.act) common_miss += X[i] - s.x0[i] - s.pred[i];
+  if (!s.act.empty()) common_miss /= double(s.act.size());
   s.surprise_self.resize(n);
   parallel::for_range(static_cast<int>(n), kVertexGrain, [&](int b, int e) {
     for (int i = b; i < e; ++i) {

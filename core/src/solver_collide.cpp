@@ -435,12 +435,12 @@ void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale)
   s.last_self_pairs = 0;
   if (!s.tri_tree.m_root || !s.vert_tree.m_root) return;
   Vec3 c = Vec3::Zero();
-  std::size_t nm = 0, held = 0;
-  for (std::size_t i = 0; i < s.n; ++i) {
-    if (s.moving[i]) c += s.win[i], ++nm;
-    else held += s.alive[i];
-  }
+  const std::size_t nm = s.act.size();  // the moving vertices, in index order
+  for (int i : s.act) c += s.win[i];
   if (nm == 0) return;
+  std::size_t live = 0;
+  for (std::size_t i = 0; i < s.n; ++i) live += s.alive[i];
+  const std::size_t held = live - nm;
   c /= double(nm);
   const unsigned char* M = s.moving.data();
   // A few held vertices (pins): one search of everything costs less than two; the leaves get their
@@ -478,11 +478,23 @@ void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale)
     const auto& tri = s.tris[s.tcl_items[q]];
     return M[tri[0]] || M[tri[1]] || M[tri[2]];
   };
+  // (In pieces, in parallel: a box around boxes is the same in any order.)
+  constexpr int kPieces = 16;
+  FloatBox moving_bounds[kPieces], active_bounds[kPieces];
+  parallel::for_each(kPieces, [&](int piece) {
+    FloatBox mb = kNoBox, ab = kNoBox;
+    for (int p = int(std::int64_t(nv) * piece / kPieces), e = int(std::int64_t(nv) * (piece + 1) / kPieces); p < e; ++p)
+      if (M[s.vcl_items[p]]) merge(mb, s.vert_box[p]);
+    for (int q = int(std::int64_t(nt) * piece / kPieces), e = int(std::int64_t(nt) * (piece + 1) / kPieces); q < e; ++q)
+      if (moving_tri(q)) merge(ab, s.tri_box[q]);
+    moving_bounds[piece] = mb;
+    active_bounds[piece] = ab;
+  });
   FloatBox moving_bound = kNoBox, active_bound = kNoBox;
-  for (int p = 0; p < nv; ++p)
-    if (M[s.vcl_items[p]]) merge(moving_bound, s.vert_box[p]);
-  for (int q = 0; q < nt; ++q)
-    if (moving_tri(q)) merge(active_bound, s.tri_box[q]);
+  for (int piece = 0; piece < kPieces; ++piece) {
+    merge(moving_bound, moving_bounds[piece]);
+    merge(active_bound, active_bounds[piece]);
+  }
   s.tri_live.resize(nt);
   s.vert_live.resize(nv);
   auto set_live = [&](bool of_moving, const FloatBox& within) {

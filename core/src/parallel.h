@@ -2,10 +2,10 @@
 //
 // for_range(n, grain, fn) calls fn(begin, end) on disjoint chunks covering [0, n), on the pool's
 // workers and on the calling thread, and returns when every chunk is done. The chunks are of
-// `grain` items or more, and about 16 a thread at most: claimed one at a time, they let a thread
-// that drew cheap items take more (a loop's items differ in cost: contacts, blocks of a region). The loops it runs are
-// the ones whose iterations write disjoint data (constraints of one colour, one vertex each), so
-// the result is the same, bit for bit, whatever the number of threads.
+// `grain` items or more, about 16 a thread: claimed one at a time, they let a thread that drew
+// cheap items take more (a loop's items differ in cost: a vertex's contacts, a region's blocks).
+// The loops it runs are the ones whose iterations write disjoint data (constraints of one colour,
+// one vertex each), so the result is the same, bit for bit, whatever the number of threads.
 //
 // Workers spin briefly between calls (a substep issues a few dozen back to back) and then sleep,
 // so an idle solver costs no CPU. One parallel loop runs at a time in the process: a second

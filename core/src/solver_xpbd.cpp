@@ -104,10 +104,9 @@ constexpr int kVertexGrain = 2048, kConstraintGrain = 256, kContactGrain = 32;
 
 // Runs f(begin, end) over the ranges [offsets[k], offsets[k + 1]) one after the other, each as its
 // kind says (see SolverArrays): a run of blocks together in parallel, each block in sequence; a
-// colour group in parallel pieces; the overflow group in sequence.
-// The blocks of a run are independent: they are handed to the threads one at a time, the largest
-// first (a local region fills some blocks and leaves the others empty), so the threads end
-// together.
+// colour group in parallel pieces; the overflow group in sequence. The blocks of a run (at most
+// kMaxBlocks: rebuild makes no more) are handed to the threads one at a time, the largest first
+// (a local region fills some blocks and leaves the others empty), so the threads end together.
 template <typename F>
 void run_ranges(const std::vector<int>& offsets, const std::vector<unsigned char>& kinds, F& f) {
   const int ranges = static_cast<int>(offsets.size()) - 1;

@@ -99,7 +99,7 @@ void gather_body_candidates(SolverArrays& s, const BodyCollider& collider, doubl
   // in order: the same lists as one serial pass.
   int moving = 0;
   for (int k = 0; k < nv; ++k) moving += s.moving[s.order[k]] != 0;
-  const int pieces = std::max(1, std::min({clusters / 4, 16 * parallel::thread_count(), moving / 64}));
+  const int pieces = std::max(1, std::min({clusters / 4, 16 * parallel::thread_count(), moving / 512}));
   s.gather.resize(pieces);
   s.gather_cut.assign(1, 0);
   for (int cl = 0, seen = 0; cl < clusters && static_cast<int>(s.gather_cut.size()) < pieces; ++cl) {
@@ -478,20 +478,21 @@ void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale)
     const auto& tri = s.tris[s.tcl_items[q]];
     return M[tri[0]] || M[tri[1]] || M[tri[2]];
   };
-  // (In pieces, in parallel: a box around boxes is the same in any order.)
-  constexpr int kPieces = 16;
-  FloatBox moving_bounds[kPieces], active_bounds[kPieces];
-  parallel::for_each(kPieces, [&](int piece) {
+  // (In pieces, in parallel on a large cloth: a box around boxes is the same in any order.)
+  constexpr int kMaxPieces = 16;
+  const int pieces = nv + nt >= 16384 ? kMaxPieces : 1;
+  FloatBox moving_bounds[kMaxPieces], active_bounds[kMaxPieces];
+  parallel::for_each(pieces, [&](int piece) {
     FloatBox mb = kNoBox, ab = kNoBox;
-    for (int p = int(std::int64_t(nv) * piece / kPieces), e = int(std::int64_t(nv) * (piece + 1) / kPieces); p < e; ++p)
+    for (int p = int(std::int64_t(nv) * piece / pieces), e = int(std::int64_t(nv) * (piece + 1) / pieces); p < e; ++p)
       if (M[s.vcl_items[p]]) merge(mb, s.vert_box[p]);
-    for (int q = int(std::int64_t(nt) * piece / kPieces), e = int(std::int64_t(nt) * (piece + 1) / kPieces); q < e; ++q)
+    for (int q = int(std::int64_t(nt) * piece / pieces), e = int(std::int64_t(nt) * (piece + 1) / pieces); q < e; ++q)
       if (moving_tri(q)) merge(ab, s.tri_box[q]);
     moving_bounds[piece] = mb;
     active_bounds[piece] = ab;
   });
   FloatBox moving_bound = kNoBox, active_bound = kNoBox;
-  for (int piece = 0; piece < kPieces; ++piece) {
+  for (int piece = 0; piece < pieces; ++piece) {
     merge(moving_bound, moving_bounds[piece]);
     merge(active_bound, active_bounds[piece]);
   }

@@ -100,7 +100,7 @@ Constraints select_constraints(SolverArrays& s) {
           s.a_bends.data(), &s.ab_ranges, static_cast<int>(s.a_bends.size())};
 }
 
-constexpr int kVertexGrain = 2048, kConstraintGrain = 256, kContactGrain = 32;
+constexpr int kVertexGrain = 2048, kConstraintGrain = 256, kContactGrain = 128;
 
 // Runs f(begin, end) over the ranges [offsets[k], offsets[k + 1]) one after the other, each as its
 // kind says (see SolverArrays): a run of blocks together in parallel, each block in sequence; a

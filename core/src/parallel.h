@@ -25,6 +25,12 @@ int thread_count();
 void for_range(int n, int grain, void* context, RangeFn fn);
 void for_each(int n, void* context, RangeFn fn);
 
+// The first item of piece `piece` of `pieces` contiguous, near-equal pieces of [0, n) (piece
+// `pieces` gives n): pieces of work whose outputs are joined in order, the same for any thread count.
+inline int piece_begin(int n, int piece, int pieces) {
+  return static_cast<int>(static_cast<long long>(n) * piece / pieces);
+}
+
 template <typename F>
 void for_range(int n, int grain, F&& f) {
   if (n <= 0) return;

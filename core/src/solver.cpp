@@ -261,8 +261,7 @@ void build_long_range(SolverArrays& s) {
       std::vector<int> hops(n, -1), reached;
       std::priority_queue<QE, std::vector<QE>, std::greater<QE>> pq;
       for (int piece = p0; piece < p1; ++piece) {
-        const int a0 = static_cast<int>(std::int64_t(na) * piece / pieces);
-        const int a1 = static_cast<int>(std::int64_t(na) * (piece + 1) / pieces);
+        const int a0 = parallel::piece_begin(na, piece, pieces), a1 = parallel::piece_begin(na, piece + 1, pieces);
         for (int q = a0; q < a1; ++q) {
           const int a = anchors[q];
           reached.assign(1, a);

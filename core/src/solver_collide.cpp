@@ -438,9 +438,7 @@ void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale)
   const std::size_t nm = s.act.size();  // the moving vertices, in index order
   for (int i : s.act) c += s.win[i];
   if (nm == 0) return;
-  std::size_t live = 0;
-  for (std::size_t i = 0; i < s.n; ++i) live += s.alive[i];
-  const std::size_t held = live - nm;
+  const std::size_t held = s.order.size() - nm;  // order: the live vertices (rebuilt with the topology)
   c /= double(nm);
   const unsigned char* M = s.moving.data();
   // A few held vertices (pins): one search of everything costs less than two; the leaves get their
@@ -484,9 +482,9 @@ void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale)
   FloatBox moving_bounds[kMaxPieces], active_bounds[kMaxPieces];
   parallel::for_each(pieces, [&](int piece) {
     FloatBox mb = kNoBox, ab = kNoBox;
-    for (int p = int(std::int64_t(nv) * piece / pieces), e = int(std::int64_t(nv) * (piece + 1) / pieces); p < e; ++p)
+    for (int p = parallel::piece_begin(nv, piece, pieces), e = parallel::piece_begin(nv, piece + 1, pieces); p < e; ++p)
       if (M[s.vcl_items[p]]) merge(mb, s.vert_box[p]);
-    for (int q = int(std::int64_t(nt) * piece / pieces), e = int(std::int64_t(nt) * (piece + 1) / pieces); q < e; ++q)
+    for (int q = parallel::piece_begin(nt, piece, pieces), e = parallel::piece_begin(nt, piece + 1, pieces); q < e; ++q)
       if (moving_tri(q)) merge(ab, s.tri_box[q]);
     moving_bounds[piece] = mb;
     active_bounds[piece] = ab;

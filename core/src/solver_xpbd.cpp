@@ -159,8 +159,7 @@ void limit_strain(SolverArrays& s, const Constraints& cs, double limit) {
     s.over_counts.resize(pieces);
     parallel::for_range(pieces, 1, [&](int p0, int p1) {
       for (int piece = p0; piece < p1; ++piece) {
-        const int k0 = static_cast<int>(std::int64_t(ne) * piece / pieces);
-        const int k1 = static_cast<int>(std::int64_t(ne) * (piece + 1) / pieces);
+        const int k0 = parallel::piece_begin(ne, piece, pieces), k1 = parallel::piece_begin(ne, piece + 1, pieces);
         std::vector<int>& out = s.over_pieces[piece];
         if (out.size() < static_cast<std::size_t>(k1 - k0)) out.resize(k1 - k0);
         int* o = out.data();

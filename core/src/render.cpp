@@ -168,10 +168,12 @@ class Raster {
     const float area = (sx[1] - sx[0]) * (sy[2] - sy[0]) - (sx[2] - sx[0]) * (sy[1] - sy[0]);
     if (!(std::abs(area) > 1e-12f)) return;
     const float inv_area = 1.0f / area;
-    const int x_min = std::max(0, static_cast<int>(std::floor(std::min({sx[0], sx[1], sx[2]}))));
-    const int x_max = std::min(w_ - 1, static_cast<int>(std::ceil(std::max({sx[0], sx[1], sx[2]}))));
-    const int y_min = std::max(row0, static_cast<int>(std::floor(std::min({sy[0], sy[1], sy[2]}))));
-    const int y_max = std::min(row1 - 1, static_cast<int>(std::ceil(std::max({sy[0], sy[1], sy[2]}))));
+    // The pixels whose centre (x + 0.5, y + 0.5) is within the triangle's box: most triangles of a
+    // fine cloth are smaller than a pixel, and cover the centre of one or none.
+    const int x_min = std::max(0, static_cast<int>(std::ceil(std::min({sx[0], sx[1], sx[2]}) - 0.5f)));
+    const int x_max = std::min(w_ - 1, static_cast<int>(std::floor(std::max({sx[0], sx[1], sx[2]}) - 0.5f)));
+    const int y_min = std::max(row0, static_cast<int>(std::ceil(std::min({sy[0], sy[1], sy[2]}) - 0.5f)));
+    const int y_max = std::min(row1 - 1, static_cast<int>(std::floor(std::max({sy[0], sy[1], sy[2]}) - 0.5f)));
     if (x_min > x_max || y_min > y_max) return;
 
     // Attributes divided by depth interpolate linearly on screen (perspective-correct).
@@ -292,79 +294,120 @@ Image render(const std::vector<const Garment*>& garments, const Body* body, cons
     int v[3];
     int h[3];  // halfedges, for the uv
   };
+  // Each triangle has its slot (the body's, then each garment's in face index order), filled in
+  // parallel; one that is not drawn (off the screen, removed, not a triangle) reaches no band.
   std::vector<Part> parts;
   std::vector<Tri> tris;
   std::vector<std::array<std::uint8_t, 2>> reach;  // the first and last band; first > last: none
-  tris.reserve((body ? body->triangles().size() : 0) + [&] {
-    std::size_t f = 0;
-    for (const Garment* g : garments) f += g->mesh().number_of_faces();
-    return f;
-  }());
-  reach.reserve(tris.capacity());
-  auto add = [&](const Part& part, const Tri& t) {
-    float lo = std::numeric_limits<float>::max(), hi = -lo;
+  constexpr std::array<std::uint8_t, 2> kNone{1, 0};
+  std::size_t slots = body ? body->triangles().size() : 0;
+  for (const Garment* g : garments) slots += g->mesh().number_of_faces() + g->mesh().number_of_removed_faces();
+  tris.resize(slots);
+  reach.assign(slots, kNone);
+  auto add = [&](const Part& part, const Tri& t, std::size_t slot) {
+    float lo = std::numeric_limits<float>::max(), hi = -lo, left = lo, right = -lo;
     bool all_in_front = true;
     for (int k = 0; k < 3; ++k) {
       if (!(part.p[t.v[k]].z() >= kNear)) all_in_front = false;
       lo = std::min(lo, part.s[t.v[k]].y());
       hi = std::max(hi, part.s[t.v[k]].y());
+      left = std::min(left, part.s[t.v[k]].x());
+      right = std::max(right, part.s[t.v[k]].x());
     }
     std::array<std::uint8_t, 2> r{0, static_cast<std::uint8_t>(bands - 1)};  // clipped at the near plane: all
     if (all_in_front) {
       if (!(hi >= 0 && lo <= height)) return;  // off the screen, or not finite
+      // No pixel's centre within its box (most triangles of a fine cloth): it covers none.
+      if (std::ceil(lo - 0.5f) > std::floor(hi - 0.5f) || std::ceil(left - 0.5f) > std::floor(right - 0.5f)) return;
       r[0] = band_of_row[std::clamp(static_cast<int>(std::floor(lo)) - 1, 0, height - 1)];
       r[1] = band_of_row[std::clamp(static_cast<int>(std::ceil(hi)) + 1, 0, height - 1)];
     }
-    tris.push_back(t);
-    reach.push_back(r);
+    tris[slot] = t;
+    reach[slot] = r;
   };
+  constexpr int kGrain = 4096;
+  std::size_t first = 0;  // the part's first slot
   if (body) {
     const auto& vs = body->vertices();
+    const auto& ts = body->triangles();
+    const int nv = static_cast<int>(vs.size()), nt = static_cast<int>(ts.size());
     Part part;
-    part.p.resize(vs.size());
-    part.n.resize(vs.size());
-    part.s.resize(vs.size());
-    std::vector<Vec3> n(vs.size(), Vec3::Zero());
-    for (const auto& t : body->triangles()) {
-      const Vec3 fn = (vs[t[1]] - vs[t[0]]).cross(vs[t[2]] - vs[t[0]]);
-      for (int k = 0; k < 3; ++k) n[t[k]] += fn;
-    }
-    for (std::size_t i = 0; i < vs.size(); ++i) {
-      part.p[i] = view.to_camera(vs[i]);
-      part.n[i] = view.dir_to_camera(n[i]);
-      part.s[i] = view.to_screen(part.p[i]);
-    }
+    part.p.resize(nv);
+    part.n.resize(nv);
+    part.s.resize(nv);
+    // Vertex normals: the faces' (area-weighted) summed in triangle order, as one thread would.
+    std::vector<Vec3> fn(nt), n(nv, Vec3::Zero());
+    parallel::for_range(nt, kGrain, [&](int b0, int b1) {
+      for (int t = b0; t < b1; ++t) fn[t] = (vs[ts[t][1]] - vs[ts[t][0]]).cross(vs[ts[t][2]] - vs[ts[t][0]]);
+    });
+    for (int t = 0; t < nt; ++t)
+      for (int k = 0; k < 3; ++k) n[ts[t][k]] += fn[t];
+    parallel::for_range(nv, kGrain, [&](int b0, int b1) {
+      for (int i = b0; i < b1; ++i) {
+        part.p[i] = view.to_camera(vs[i]);
+        part.n[i] = view.dir_to_camera(n[i]);
+        part.s[i] = view.to_screen(part.p[i]);
+      }
+    });
     part.surface = Surface{nullptr, kBodyColor.cast<float>()};
-    for (const auto& t : body->triangles()) add(part, {0, {int(t[0]), int(t[1]), int(t[2])}, {-1, -1, -1}});
+    parallel::for_range(nt, kGrain, [&](int b0, int b1) {
+      for (int t = b0; t < b1; ++t) add(part, {0, {ts[t][0], ts[t][1], ts[t][2]}, {-1, -1, -1}}, first + t);
+    });
+    first += nt;
     parts.push_back(std::move(part));
   }
   for (const Garment* g : garments) {
     const Mesh& m = g->mesh();
+    const int nv = static_cast<int>(g->vertex_capacity());
+    const int nf = static_cast<int>(m.number_of_faces() + m.number_of_removed_faces());
     Part part;
-    part.p.resize(g->vertex_capacity());
-    part.s.resize(g->vertex_capacity());
-    std::vector<Vec3> n(g->vertex_capacity(), Vec3::Zero());
-    for (Vertex v : m.vertices()) {
-      part.p[v] = view.to_camera(g->position(v));
-      part.s[v] = view.to_screen(part.p[v]);
-    }
-    const int id = static_cast<int>(parts.size());
-    for (Face f : m.faces()) {
-      Tri t{id, {}, {}};
-      int k = 0;
-      for (Halfedge h : CGAL::halfedges_around_face(m.halfedge(f), m)) {
-        if (k == 3) break;
-        t.v[k] = static_cast<int>(m.target(h).idx());
-        t.h[k++] = static_cast<int>(h.idx());
+    part.p.resize(nv);
+    part.s.resize(nv);
+    part.n.resize(nv);
+    parallel::for_range(nv, kGrain, [&](int b0, int b1) {
+      for (int i = b0; i < b1; ++i) {
+        const Vertex v(i);
+        if (m.is_removed(v)) continue;
+        part.p[i] = view.to_camera(g->position(v));
+        part.s[i] = view.to_screen(part.p[i]);
       }
-      if (k != 3) continue;
-      const Vec3 a = g->position(Vertex(t.v[0])), b = g->position(Vertex(t.v[1])), c = g->position(Vertex(t.v[2]));
-      const Vec3 fn = (b - a).cross(c - a);
-      for (int q = 0; q < 3; ++q) n[t.v[q]] += fn;
-      add(part, t);
-    }
-    part.n.resize(n.size());
-    for (Vertex v : m.vertices()) part.n[v] = view.dir_to_camera(n[v]);
+    });
+    // Each face's corners and normal (in parallel); the vertex normals summed in face order.
+    std::vector<Tri> ft(nf);
+    std::vector<Vec3> fn(nf);
+    std::vector<unsigned char> is_tri(nf, 0);
+    const int id = static_cast<int>(parts.size());
+    parallel::for_range(nf, kGrain, [&](int b0, int b1) {
+      for (int f = b0; f < b1; ++f) {
+        const Face face(f);
+        if (m.is_removed(face)) continue;
+        Tri t{id, {}, {}};
+        int k = 0;
+        for (Halfedge h : CGAL::halfedges_around_face(m.halfedge(face), m)) {
+          if (k == 3) break;
+          t.v[k] = static_cast<int>(m.target(h).idx());
+          t.h[k++] = static_cast<int>(h.idx());
+        }
+        if (k != 3) continue;
+        const Vec3 a = g->position(Vertex(t.v[0])), b = g->position(Vertex(t.v[1])), c = g->position(Vertex(t.v[2]));
+        fn[f] = (b - a).cross(c - a);
+        ft[f] = t;
+        is_tri[f] = 1;
+      }
+    });
+    std::vector<Vec3> n(nv, Vec3::Zero());
+    for (int f = 0; f < nf; ++f)
+      if (is_tri[f])
+        for (int q = 0; q < 3; ++q) n[ft[f].v[q]] += fn[f];
+    parallel::for_range(nv, kGrain, [&](int b0, int b1) {
+      for (int i = b0; i < b1; ++i)
+        if (!m.is_removed(Vertex(i))) part.n[i] = view.dir_to_camera(n[i]);
+    });
+    parallel::for_range(nf, kGrain, [&](int b0, int b1) {
+      for (int f = b0; f < b1; ++f)
+        if (is_tri[f]) add(part, ft[f], first + f);
+    });
+    first += nf;
     const bool textured = !g->texture().empty() &&
                           g->texture().rgba.size() == static_cast<std::size_t>(g->texture().width) * g->texture().height * 4;
     part.surface = Surface{textured ? &g->texture() : nullptr, g->color.cast<float>()};

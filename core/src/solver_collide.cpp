@@ -444,34 +444,38 @@ void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale)
   // A few held vertices (pins): one search of everything costs less than two; the leaves get their
   // boxes as they are computed.
   const bool one_search = 10 * held < nm;
-  // The boxes of what the window sweeps: every triangle's, and every vertex's (in cluster order).
+  // The boxes of what the window sweeps (in cluster order).
   const int nt = static_cast<int>(s.tcl_items.size()), nv = static_cast<int>(s.vcl_items.size());
   s.tri_box.resize(nt);
-  parallel::for_range(nt, 2048, [&](int b0, int e0) {
-    for (int q = b0; q < e0; ++q) {
-      Box3 b;
-      for (int u : s.tris[s.tcl_items[q]]) {
-        b.extend(s.x[u]);
-        b.extend(Vec3(s.x[u] + s.win[u] - c));
-      }
-      s.tri_box[q] = to_float(b);
-    }
-  });
   s.vert_box.resize(nv);
-  parallel::for_range(nv, 2048, [&](int b0, int e0) {
-    for (int p = b0; p < e0; ++p) {
-      const int i = s.vcl_items[p];
-      s.vert_box[p] = to_float(swept_box(s, s.win, s.surprise_self, surprise_scale, i, std::min(thickness, 0.6 * s.spacing[i]), 0.1, c));
+  auto tri_box = [&](int q) {
+    Box3 b;
+    for (int u : s.tris[s.tcl_items[q]]) {
+      b.extend(s.x[u]);
+      b.extend(Vec3(s.x[u] + s.win[u] - c));
     }
-  });
+    return to_float(b);
+  };
+  auto vert_box = [&](int p) {
+    const int i = s.vcl_items[p];
+    return to_float(swept_box(s, s.win, s.surprise_self, surprise_scale, i, std::min(thickness, 0.6 * s.spacing[i]), 0.1, c));
+  };
   if (one_search) {
+    parallel::for_range(nt, 2048, [&](int b0, int e0) {
+      for (int q = b0; q < e0; ++q) s.tri_box[q] = tri_box(q);
+    });
+    parallel::for_range(nv, 2048, [&](int b0, int e0) {
+      for (int p = b0; p < e0; ++p) s.vert_box[p] = vert_box(p);
+    });
     collide_trees(s, thickness, s.vert_box, s.tri_box);
     s.last_self_pairs = s.self_pairs.size();
     partition_self_pairs(s);
     return;
   }
-  // What the moving vertices sweep, and what the triangles with a moving corner sweep: nothing
-  // outside these can be in a pair.
+  // Two searches. Only the boxes of what moves are needed whole: those of the moving vertices and
+  // of the triangles with a moving corner, and what they sweep bounds each search; a held item's
+  // box (3/4 of them under a local region) is made only in the search it can take part in, and
+  // kept only if it meets that bound.
   auto moving_tri = [&](int q) {
     const auto& tri = s.tris[s.tcl_items[q]];
     return M[tri[0]] || M[tri[1]] || M[tri[2]];
@@ -483,9 +487,9 @@ void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale)
   parallel::for_each(pieces, [&](int piece) {
     FloatBox mb = kNoBox, ab = kNoBox;
     for (int p = parallel::piece_begin(nv, piece, pieces), e = parallel::piece_begin(nv, piece + 1, pieces); p < e; ++p)
-      if (M[s.vcl_items[p]]) merge(mb, s.vert_box[p]);
+      if (M[s.vcl_items[p]]) merge(mb, s.vert_box[p] = vert_box(p));
     for (int q = parallel::piece_begin(nt, piece, pieces), e = parallel::piece_begin(nt, piece + 1, pieces); q < e; ++q)
-      if (moving_tri(q)) merge(ab, s.tri_box[q]);
+      if (moving_tri(q)) merge(ab, s.tri_box[q] = tri_box(q));
     moving_bounds[piece] = mb;
     active_bounds[piece] = ab;
   });
@@ -496,22 +500,23 @@ void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale)
   }
   s.tri_live.resize(nt);
   s.vert_live.resize(nv);
-  auto set_live = [&](bool of_moving, const FloatBox& within) {
-    parallel::for_range(nv, 2048, [&](int b0, int e0) {
-      for (int p = b0; p < e0; ++p)
-        s.vert_live[p] = ((M[s.vcl_items[p]] != 0) == of_moving && meet(s.vert_box[p], within)) ? s.vert_box[p] : kNoBox;
-    });
-    parallel::for_range(nt, 2048, [&](int b0, int e0) {
-      for (int q = b0; q < e0; ++q)
-        s.tri_live[q] = ((of_moving || moving_tri(q)) && meet(s.tri_box[q], within)) ? s.tri_box[q] : kNoBox;
-    });
-  };
+  auto within = [](const FloatBox& b, const FloatBox& bound) { return meet(b, bound) ? b : kNoBox; };
   // Moving vertices against all triangles (those within their reach).
-  set_live(true, moving_bound);
+  parallel::for_range(nv, 2048, [&](int b0, int e0) {
+    for (int p = b0; p < e0; ++p) s.vert_live[p] = M[s.vcl_items[p]] ? within(s.vert_box[p], moving_bound) : kNoBox;
+  });
+  parallel::for_range(nt, 2048, [&](int b0, int e0) {
+    for (int q = b0; q < e0; ++q) s.tri_live[q] = within(moving_tri(q) ? s.tri_box[q] : tri_box(q), moving_bound);
+  });
   collide_trees(s, thickness, s.vert_live, s.tri_live);
   // Held vertices (those within reach of a moving triangle) against the triangles with a moving
   // corner.
-  set_live(false, active_bound);
+  parallel::for_range(nv, 2048, [&](int b0, int e0) {
+    for (int p = b0; p < e0; ++p) s.vert_live[p] = M[s.vcl_items[p]] ? kNoBox : within(vert_box(p), active_bound);
+  });
+  parallel::for_range(nt, 2048, [&](int b0, int e0) {
+    for (int q = b0; q < e0; ++q) s.tri_live[q] = moving_tri(q) ? within(s.tri_box[q], active_bound) : kNoBox;
+  });
   collide_trees(s, thickness, s.vert_live, s.tri_live);
   s.last_self_pairs = s.self_pairs.size();
   partition_self_pairs(s);

@@ -169,8 +169,9 @@ struct SolverArrays {
   std::vector<unsigned char> pair_slab;
   std::vector<SelfPair> pair_scratch;
   std::vector<std::vector<SelfPair>> self_gather;  // one list per vertex subtree, joined in order
-  // What each triangle and vertex sweeps in the window, and the box it takes part in this search
-  // with (its own, or none), both in cluster order (indexed as *_items).
+  // What each triangle and vertex sweeps in the window (when the gathering makes two searches,
+  // only the moving vertices' and the triangles' with a moving corner are kept), and the box it
+  // takes part in this search with (its own, or none), both in cluster order (indexed as *_items).
   std::vector<FloatBox> tri_box, vert_box, tri_live, vert_live;
   // Per vertex, for skipping far pairs: the length of its path since the pairs were gathered, up
   // to the last substep, and up to now (path + this substep's motion + the self-collision pushes).

@@ -98,8 +98,14 @@ struct SolverArrays {
   };
   std::vector<Attach> attach;
   std::vector<std::array<int, 2>> tacks;
-  std::vector<int> over;  // edges beyond the strain limit this substep
+  // An edge beyond the strain limit: its index and, for the passes, its ends and rest length.
+  struct OverEdge {
+    int k, i, j;
+    double rest;
+  };
+  std::vector<OverEdge> over;  // edges beyond the strain limit this substep, in edge order
   std::vector<std::vector<int>> over_pieces;  // the scan's pieces (over_counts of each in use)
+  std::vector<std::vector<OverEdge>> over_found;  // each piece's edges beyond, with their ends
   std::vector<int> over_counts;
   std::vector<int> over_runs;  // where each colour starts in `over`
 

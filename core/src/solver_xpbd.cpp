@@ -157,6 +157,7 @@ void limit_strain(SolverArrays& s, const Constraints& cs, double limit) {
     const int pieces = std::max(1, std::min(32, ne / 1024));
     s.over_pieces.resize(pieces);
     s.over_counts.resize(pieces);
+    s.over_found.resize(pieces);
     parallel::for_range(pieces, 1, [&](int p0, int p1) {
       for (int piece = p0; piece < p1; ++piece) {
         const int k0 = parallel::piece_begin(ne, piece, pieces), k1 = parallel::piece_begin(ne, piece + 1, pieces);
@@ -171,26 +172,30 @@ void limit_strain(SolverArrays& s, const Constraints& cs, double limit) {
           count += int(l2 > hi2 * r * r) | int(l2 < lo2 * r * r);  // rounded as before: the same edges
         }
         s.over_counts[piece] = count;
+        // Each with its ends and rest length beside it: the passes read one record an edge.
+        std::vector<SolverArrays::OverEdge>& found = s.over_found[piece];
+        found.resize(count);
+        for (int q = 0; q < count; ++q) found[q] = {o[q], cs.e_i[o[q]], cs.e_j[o[q]], cs.e_rest[o[q]]};
       }
     });
     s.over.clear();
     for (int piece = 0; piece < pieces; ++piece)
-      s.over.insert(s.over.end(), s.over_pieces[piece].begin(), s.over_pieces[piece].begin() + s.over_counts[piece]);
+      s.over.insert(s.over.end(), s.over_found[piece].begin(), s.over_found[piece].end());
     if (s.over.empty()) return;
     // The offending edges are in edge order: they fall in the edges' ranges, and each range's run
     // is projected as the range is (blocks in parallel, each in sequence; colour groups in
     // parallel; the overflow in sequence): the same result as one thread.
     auto project = [&](int b, int e) {
       for (int q = b; q < e; ++q) {
-        const int k = s.over[q];
-        const int i = cs.e_i[k], j = cs.e_j[k];
+        const SolverArrays::OverEdge& edge = s.over[q];
+        const int i = edge.i, j = edge.j;
         const double wi = W[i], wj = W[j];
         const double wsum = wi + wj;
         if (wsum == 0) continue;
         const Vec3 d = X[i] - X[j];
         const double len = d.norm();
         if (!(len > 1e-12)) continue;
-        const double r = cs.e_rest[k];
+        const double r = edge.rest;
         const double target = std::clamp(len, lo * r, hi * r);
         if (target == len) continue;
         const Vec3 corr = d * ((target - len) / (len * wsum));
@@ -202,7 +207,9 @@ void limit_strain(SolverArrays& s, const Constraints& cs, double limit) {
     s.over_runs.assign(1, 0);
     for (std::size_t c = 0; c + 1 < ranges.size(); ++c)
       s.over_runs.push_back(static_cast<int>(
-          std::lower_bound(s.over.begin() + s.over_runs.back(), s.over.end(), ranges[c + 1]) - s.over.begin()));
+          std::lower_bound(s.over.begin() + s.over_runs.back(), s.over.end(), ranges[c + 1],
+                           [](const SolverArrays::OverEdge& e, int k) { return e.k < k; }) -
+          s.over.begin()));
     for (int pass = 0; pass < kPasses; ++pass) run_ranges(s.over_runs, s.e_kinds, project);
   }
 }

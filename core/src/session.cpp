@@ -2,6 +2,7 @@
 
 #include "geometry.h"
 #include "kiji/error.h"
+#include "parallel.h"
 
 #include <algorithm>
 #include <cmath>
@@ -98,55 +99,87 @@ SurfaceHit Session::pick(const Vec3& position, const Vec3& ray) const {
   }
   const Vec3 lo = use_ray ? Vec3(0, 0, 0) : Vec3::Constant(-pick_radius);
   const Vec3 hi = use_ray ? Vec3(0, 0, reach) : Vec3::Constant(pick_radius);
+  // In parallel, in pieces of the face indices: each piece keeps its nearest hit (the first of
+  // equals), and the pieces' are taken in order, as one loop over the faces would.
+  struct Found {
+    std::size_t garment = 0;
+    Face face;
+    Vec3 point, bary;
+    double distance = std::numeric_limits<double>::infinity();
+  };
+  Found best_found;
+  bool any = false;
   for (std::size_t gi = 0; gi < garments_.size(); ++gi) {
     const Garment& g = garments_[gi];
     const Mesh& m = g.mesh();
-    std::vector<unsigned char> side(g.vertex_capacity(), 0);
-    for (Vertex v : m.vertices()) {
-      const Vec3 r = g.position(v) - position;
-      const Vec3 q(r.dot(e1), r.dot(e2), r.dot(e3));
-      const double tol = 1e-9 * (1 + r.cwiseAbs().maxCoeff());  // the projections' rounding, well covered
-      unsigned char bits = 0;
-      for (int k = 0; k < 3; ++k)
-        bits |= static_cast<unsigned char>(((q[k] < lo[k] - tol) << (2 * k)) | ((q[k] > hi[k] + tol) << (2 * k + 1)));
-      side[v.idx()] = bits;
-    }
-    for (Face f : m.faces()) {
-      Halfedge h0 = m.halfedge(f);
-      const Halfedge h1 = m.next(h0), h2 = m.next(h1);
-      if (side[m.target(h0).idx()] & side[m.target(h1).idx()] & side[m.target(h2).idx()]) continue;
-      const Vec3 a = g.position(m.target(h0)), b = g.position(m.target(h1)), c = g.position(m.target(h2));
-      Vec3 point, bary;
-      double distance;
-      if (use_ray) {
-        double t = 0;
-        if (!geom::segment_crosses_triangle(position, position + reach * dir, a, b, c, t)) continue;
-        point = position + t * reach * dir;
-        const geom::ClosestPoint cp = geom::closest_on_triangle(point, a, b, c);
-        bary = Vec3(cp.b0, cp.b1, cp.b2);
-        distance = t * reach;
-      } else {
-        const geom::ClosestPoint cp = geom::closest_on_triangle(position, a, b, c);
-        point = cp.point;
-        bary = Vec3(cp.b0, cp.b1, cp.b2);
-        distance = (point - position).norm();
-        if (distance > pick_radius) continue;
+    const int nv = static_cast<int>(g.vertex_capacity());
+    const int nf = static_cast<int>(m.number_of_faces() + m.number_of_removed_faces());
+    std::vector<unsigned char> side(nv, 0);
+    parallel::for_range(nv, 4096, [&](int b0, int b1) {
+      for (int i = b0; i < b1; ++i) {
+        const Vertex v(i);
+        if (m.is_removed(v)) continue;
+        const Vec3 r = g.position(v) - position;
+        const Vec3 q(r.dot(e1), r.dot(e2), r.dot(e3));
+        const double tol = 1e-9 * (1 + r.cwiseAbs().maxCoeff());  // the projections' rounding, well covered
+        unsigned char bits = 0;
+        for (int k = 0; k < 3; ++k)
+          bits |= static_cast<unsigned char>(((q[k] < lo[k] - tol) << (2 * k)) | ((q[k] > hi[k] + tol) << (2 * k + 1)));
+        side[i] = bits;
       }
-      if (distance >= best.distance) continue;
-      best.hit = true;
-      best.garment = gi;
-      best.face = f;
-      best.barycentric = bary;
-      best.point = point;
-      best.distance = distance;
-      const Vec3 n = (b - a).cross(c - a);
-      best.normal = n.norm() > 0 ? Vec3(n.normalized()) : Vec3(0, 1, 0);
-      best.uv = bary[0] * g.uv(h0) + bary[1] * g.uv(h1) + bary[2] * g.uv(h2);
-      int k = 0;
-      bary.maxCoeff(&k);
-      best.nearest = m.target(k == 0 ? h0 : (k == 1 ? h1 : h2));
-    }
+    });
+    const int pieces = std::clamp(nf / 4096, 1, 4 * parallel::thread_count());
+    std::vector<Found> found(pieces);
+    parallel::for_each(pieces, [&](int piece) {
+      Found& mine = found[piece];
+      for (int fi = parallel::piece_begin(nf, piece, pieces), fe = parallel::piece_begin(nf, piece + 1, pieces);
+           fi < fe; ++fi) {
+        const Face f(fi);
+        if (m.is_removed(f)) continue;
+        const Halfedge h0 = m.halfedge(f), h1 = m.next(h0), h2 = m.next(h1);
+        if (side[m.target(h0).idx()] & side[m.target(h1).idx()] & side[m.target(h2).idx()]) continue;
+        const Vec3 a = g.position(m.target(h0)), b = g.position(m.target(h1)), c = g.position(m.target(h2));
+        Vec3 point, bary;
+        double distance;
+        if (use_ray) {
+          double t = 0;
+          if (!geom::segment_crosses_triangle(position, position + reach * dir, a, b, c, t)) continue;
+          point = position + t * reach * dir;
+          const geom::ClosestPoint cp = geom::closest_on_triangle(point, a, b, c);
+          bary = Vec3(cp.b0, cp.b1, cp.b2);
+          distance = t * reach;
+        } else {
+          const geom::ClosestPoint cp = geom::closest_on_triangle(position, a, b, c);
+          point = cp.point;
+          bary = Vec3(cp.b0, cp.b1, cp.b2);
+          distance = (point - position).norm();
+          if (distance > pick_radius) continue;
+        }
+        if (distance >= mine.distance) continue;
+        mine = {gi, f, point, bary, distance};
+      }
+    });
+    for (const Found& mine : found)
+      if (mine.distance < best_found.distance) best_found = mine, any = true;
   }
+  if (!any) return best;
+  const Garment& g = garments_[best_found.garment];
+  const Mesh& m = g.mesh();
+  const Halfedge h0 = m.halfedge(best_found.face), h1 = m.next(h0), h2 = m.next(h1);
+  const Vec3 a = g.position(m.target(h0)), b = g.position(m.target(h1)), c = g.position(m.target(h2));
+  const Vec3& bary = best_found.bary;
+  best.hit = true;
+  best.garment = best_found.garment;
+  best.face = best_found.face;
+  best.barycentric = bary;
+  best.point = best_found.point;
+  best.distance = best_found.distance;
+  const Vec3 n = (b - a).cross(c - a);
+  best.normal = n.norm() > 0 ? Vec3(n.normalized()) : Vec3(0, 1, 0);
+  best.uv = bary[0] * g.uv(h0) + bary[1] * g.uv(h1) + bary[2] * g.uv(h2);
+  int k = 0;
+  bary.maxCoeff(&k);
+  best.nearest = m.target(k == 0 ? h0 : (k == 1 ? h1 : h2));
   return best;
 }
 

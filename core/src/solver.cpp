@@ -8,6 +8,7 @@
 #include "solver_state.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -44,20 +45,44 @@ std::string vec_text(const Vec3& v) {
 Vertex vtx(int i) { return Vertex(static_cast<Mesh::size_type>(i)); }
 
 // The garment's own state, checked before the solver reads it.
+// The first index in [0, n) where bad(i) holds, or -1: in parallel pieces, the first piece's
+// first (what one loop in order would find).
+template <typename F>
+int first_where(int n, F bad) {
+  const int pieces = std::clamp(n / 4096, 1, 4 * parallel::thread_count());
+  std::vector<int> first(pieces, -1);
+  parallel::for_each(pieces, [&](int piece) {
+    for (int i = parallel::piece_begin(n, piece, pieces), e = parallel::piece_begin(n, piece + 1, pieces); i < e; ++i)
+      if (bad(i)) {
+        first[piece] = i;
+        return;
+      }
+  });
+  for (int f : first)
+    if (f >= 0) return f;
+  return -1;
+}
+
 void check_garment(const Garment& garment) {
   const Mesh& m = garment.mesh();
-  for (Vertex v : m.vertices()) {
-    if (!all_finite(garment.position(v)) || !all_finite(garment.velocity(v)) ||
-        !std::isfinite(garment.inverse_mass(v)) || garment.inverse_mass(v) < 0)
-      throw InputError("garment '" + garment.name + "' has a non-finite position, velocity or mass at vertex " +
-                       std::to_string(v.idx()) + ": reset or reload the garment");
-  }
-  for (Edge e : m.edges()) {
+  const int bad_vertex = first_where(static_cast<int>(garment.vertex_capacity()), [&](int i) {
+    const Vertex v(i);
+    return !m.is_removed(v) && (!all_finite(garment.position(v)) || !all_finite(garment.velocity(v)) ||
+                                !std::isfinite(garment.inverse_mass(v)) || garment.inverse_mass(v) < 0);
+  });
+  if (bad_vertex >= 0)
+    throw InputError("garment '" + garment.name + "' has a non-finite position, velocity or mass at vertex " +
+                     std::to_string(bad_vertex) + ": reset or reload the garment");
+  const int bad_edge = first_where(static_cast<int>(m.number_of_edges() + m.number_of_removed_edges()), [&](int k) {
+    const Edge e(k);
+    if (m.is_removed(e)) return false;
     const double r = garment.rest_length(e);
-    if (!std::isfinite(r) || r <= 0)
-      throw InputError("garment '" + garment.name + "' has a rest length of " + std::to_string(r) +
-                       " on edge " + std::to_string(e.idx()) + ": rest lengths must be positive");
-  }
+    return !std::isfinite(r) || r <= 0;
+  });
+  if (bad_edge >= 0)
+    throw InputError("garment '" + garment.name + "' has a rest length of " +
+                     std::to_string(garment.rest_length(Edge(bad_edge))) + " on edge " + std::to_string(bad_edge) +
+                     ": rest lengths must be positive");
 }
 
 void build_if_needed(SolverArrays& s, const Garment& garment) {
@@ -626,31 +651,43 @@ void Solver::step(Garment& garment, double dt) {
   // position, velocity or pin) or of a rest length, a hand, a force, an open seam.
   const bool sleeping = params_.sleep_after > 0 && s.sleep_ready;
   s.im.resize(n, 0.0);
+  // In parallel pieces, each marking the blocks it finds disturbed in its own flags.
   std::vector<unsigned char> disturbed(s.blocks, 0);
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!s.alive[i]) {
-      s.moving[i] = 0;
-      s.w[i] = 0;
-      continue;
+  const int pieces = std::clamp(static_cast<int>(n) / 4096, 1, 4 * parallel::thread_count());
+  std::vector<std::array<unsigned char, SolverArrays::kMaxBlocks>> piece_disturbed(pieces);
+  for (auto& d : piece_disturbed) d.fill(0);
+  parallel::for_each(pieces, [&](int piece) {
+    unsigned char* dist = piece_disturbed[piece].data();
+    const int i1 = parallel::piece_begin(static_cast<int>(n), piece + 1, pieces);
+    for (int i = parallel::piece_begin(static_cast<int>(n), piece, pieces); i < i1; ++i) {
+      if (!s.alive[i]) {
+        s.moving[i] = 0;
+        s.w[i] = 0;
+        continue;
+      }
+      const Vertex v = vtx(i);
+      s.x[i] = garment.position(v);
+      s.v[i] = garment.velocity(v);
+      s.fext[i].setZero();
+      const double im = garment.inverse_mass(v);
+      if (sleeping && s.asleep[s.block[i]] && (s.x[i] != s.anchor[i] || s.v[i] != Vec3::Zero() || im != s.im[i]))
+        dist[s.block[i]] = 1;
+      s.im[i] = im;
+      bool in = im > 0;
+      if (local && (s.x[i] - params_.local_center).squaredNorm() > r2) in = false;
+      s.moving[i] = in;
+      s.w[i] = in ? (mass_spring ? 1.0 : im) : 0.0;
     }
-    const Vertex v = vtx(static_cast<int>(i));
-    s.x[i] = garment.position(v);
-    s.v[i] = garment.velocity(v);
-    s.fext[i].setZero();
-    const double im = garment.inverse_mass(v);
-    if (sleeping && s.asleep[s.block[i]] && (s.x[i] != s.anchor[i] || s.v[i] != Vec3::Zero() || im != s.im[i]))
-      disturbed[s.block[i]] = 1;
-    s.im[i] = im;
-    bool in = im > 0;
-    if (local && (s.x[i] - params_.local_center).squaredNorm() > r2) in = false;
-    s.moving[i] = in;
-    s.w[i] = in ? (mass_spring ? 1.0 : im) : 0.0;
-  }
-  for (std::size_t k = 0; k < s.e_handle.size(); ++k) {
-    const double rest = garment.rest_length(s.e_handle[k]);
-    if (rest != s.e_rest[k]) disturbed[s.block[s.e_i[k]]] = disturbed[s.block[s.e_j[k]]] = 1;
-    s.e_rest[k] = rest;
-  }
+    const int ne = static_cast<int>(s.e_handle.size());
+    const int k1 = parallel::piece_begin(ne, piece + 1, pieces);
+    for (int k = parallel::piece_begin(ne, piece, pieces); k < k1; ++k) {
+      const double rest = garment.rest_length(s.e_handle[k]);
+      if (rest != s.e_rest[k]) dist[s.block[s.e_i[k]]] = dist[s.block[s.e_j[k]]] = 1;
+      s.e_rest[k] = rest;
+    }
+  });
+  for (const auto& d : piece_disturbed)
+    for (int b = 0; b < s.blocks; ++b) disturbed[b] |= d[b];
   for (const auto& f : forces_) {
     s.fext[f.vertex.idx()] += f.force;
     disturbed[s.block[f.vertex.idx()]] = 1;
@@ -679,26 +716,29 @@ void Solver::step(Garment& garment, double dt) {
     solver_detail::step_xpbd(s, params_, mat, body, dt);
 
   // Refuse to write a diverged state back (the garment keeps its last good state).
-  for (std::size_t i = 0; i < n; ++i) {
-    if (s.moving[i] && (!all_finite(s.x[i]) || !all_finite(s.v[i]))) {
-      s.built = false;
-      throw InputError("the simulation diverged (non-finite state) at vertex " + std::to_string(i) +
-                       ": lower dt or spring_k, or raise substeps; the garment was left as it was");
-    }
+  const int diverged = first_where(static_cast<int>(n), [&](int i) {
+    return s.moving[i] && (!all_finite(s.x[i]) || !all_finite(s.v[i]));
+  });
+  if (diverged >= 0) {
+    s.built = false;
+    throw InputError("the simulation diverged (non-finite state) at vertex " + std::to_string(diverged) +
+                     ": lower dt or spring_k, or raise substeps; the garment was left as it was");
   }
   solver_detail::sleep_after_step(s, params_, dt);
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!s.alive[i]) continue;
-    const Vertex v = vtx(static_cast<int>(i));
-    if (s.moving[i]) {
-      garment.set_position(v, s.x[i]);
-      garment.velocity(v) = s.v[i];
-    } else if (local) {
-      // Held still by the local region this step: it has no motion to resume with when the region
-      // moves on or the tool lets go.
-      garment.velocity(v) = Vec3::Zero();
+  parallel::for_range(static_cast<int>(n), 4096, [&](int b, int e) {
+    for (int i = b; i < e; ++i) {
+      if (!s.alive[i]) continue;
+      const Vertex v = vtx(i);
+      if (s.moving[i]) {
+        garment.set_position(v, s.x[i]);
+        garment.velocity(v) = s.v[i];
+      } else if (local) {
+        // Held still by the local region this step: it has no motion to resume with when the region
+        // moves on or the tool lets go.
+        garment.velocity(v) = Vec3::Zero();
+      }
     }
-  }
+  });
 }
 
 void Solver::prepare(const Garment& garment) {

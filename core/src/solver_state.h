@@ -104,9 +104,8 @@ struct SolverArrays {
     double rest;
   };
   std::vector<OverEdge> over;  // edges beyond the strain limit this substep, in edge order
-  std::vector<std::vector<int>> over_pieces;  // the scan's pieces (over_counts of each in use)
+  std::vector<std::vector<int>> over_pieces;  // the scan's pieces: the edges beyond, found in each
   std::vector<std::vector<OverEdge>> over_found;  // each piece's edges beyond, with their ends
-  std::vector<int> over_counts;
   std::vector<int> over_runs;  // where each colour starts in `over`
 
   // ---- faces and adjacency ----

@@ -156,7 +156,6 @@ void limit_strain(SolverArrays& s, const Constraints& cs, double limit) {
     // pulled taut, scattered, and a branch on each was mispredicted often.
     const int pieces = std::max(1, std::min(32, ne / 1024));
     s.over_pieces.resize(pieces);
-    s.over_counts.resize(pieces);
     s.over_found.resize(pieces);
     parallel::for_range(pieces, 1, [&](int p0, int p1) {
       for (int piece = p0; piece < p1; ++piece) {
@@ -171,7 +170,6 @@ void limit_strain(SolverArrays& s, const Constraints& cs, double limit) {
           o[count] = k;
           count += int(l2 > hi2 * r * r) | int(l2 < lo2 * r * r);  // rounded as before: the same edges
         }
-        s.over_counts[piece] = count;
         // Each with its ends and rest length beside it: the passes read one record an edge.
         std::vector<SolverArrays::OverEdge>& found = s.over_found[piece];
         found.resize(count);

@@ -14,6 +14,7 @@
 // number of hardware threads, at most 8.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <type_traits>
 
@@ -30,6 +31,10 @@ void for_each(int n, void* context, RangeFn fn);
 inline int piece_begin(int n, int piece, int pieces) {
   return static_cast<int>(static_cast<long long>(n) * piece / pieces);
 }
+
+// How many pieces to cut [0, n) into for piece_begin: about `grain` items or more a piece, at
+// most four a thread (for the threads to end together), at least one.
+inline int piece_count(int n, int grain) { return std::clamp(n / grain, 1, 4 * thread_count()); }
 
 template <typename F>
 void for_range(int n, int grain, F&& f) {

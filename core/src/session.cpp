@@ -100,15 +100,8 @@ SurfaceHit Session::pick(const Vec3& position, const Vec3& ray) const {
   const Vec3 lo = use_ray ? Vec3(0, 0, 0) : Vec3::Constant(-pick_radius);
   const Vec3 hi = use_ray ? Vec3(0, 0, reach) : Vec3::Constant(pick_radius);
   // In parallel, in pieces of the face indices: each piece keeps its nearest hit (the first of
-  // equals), and the pieces' are taken in order, as one loop over the faces would.
-  struct Found {
-    std::size_t garment = 0;
-    Face face;
-    Vec3 point, bary;
-    double distance = std::numeric_limits<double>::infinity();
-  };
-  Found best_found;
-  bool any = false;
+  // equals), and the pieces' are taken in order, as one loop over the faces would; the winner's
+  // normal, uv and nearest corner are filled in after.
   for (std::size_t gi = 0; gi < garments_.size(); ++gi) {
     const Garment& g = garments_[gi];
     const Mesh& m = g.mesh();
@@ -128,10 +121,10 @@ SurfaceHit Session::pick(const Vec3& position, const Vec3& ray) const {
         side[i] = bits;
       }
     });
-    const int pieces = std::clamp(nf / 4096, 1, 4 * parallel::thread_count());
-    std::vector<Found> found(pieces);
+    const int pieces = parallel::piece_count(nf, 4096);
+    std::vector<SurfaceHit> found(pieces);
     parallel::for_each(pieces, [&](int piece) {
-      Found& mine = found[piece];
+      SurfaceHit& mine = found[piece];
       for (int fi = parallel::piece_begin(nf, piece, pieces), fe = parallel::piece_begin(nf, piece + 1, pieces);
            fi < fe; ++fi) {
         const Face f(fi);
@@ -156,24 +149,23 @@ SurfaceHit Session::pick(const Vec3& position, const Vec3& ray) const {
           if (distance > pick_radius) continue;
         }
         if (distance >= mine.distance) continue;
-        mine = {gi, f, point, bary, distance};
+        mine.hit = true;
+        mine.garment = gi;
+        mine.face = f;
+        mine.barycentric = bary;
+        mine.point = point;
+        mine.distance = distance;
       }
     });
-    for (const Found& mine : found)
-      if (mine.distance < best_found.distance) best_found = mine, any = true;
+    for (const SurfaceHit& mine : found)
+      if (mine.distance < best.distance) best = mine;
   }
-  if (!any) return best;
-  const Garment& g = garments_[best_found.garment];
+  if (!best.hit) return best;
+  const Garment& g = garments_[best.garment];
   const Mesh& m = g.mesh();
-  const Halfedge h0 = m.halfedge(best_found.face), h1 = m.next(h0), h2 = m.next(h1);
+  const Halfedge h0 = m.halfedge(best.face), h1 = m.next(h0), h2 = m.next(h1);
   const Vec3 a = g.position(m.target(h0)), b = g.position(m.target(h1)), c = g.position(m.target(h2));
-  const Vec3& bary = best_found.bary;
-  best.hit = true;
-  best.garment = best_found.garment;
-  best.face = best_found.face;
-  best.barycentric = bary;
-  best.point = best_found.point;
-  best.distance = best_found.distance;
+  const Vec3& bary = best.barycentric;
   const Vec3 n = (b - a).cross(c - a);
   best.normal = n.norm() > 0 ? Vec3(n.normalized()) : Vec3(0, 1, 0);
   best.uv = bary[0] * g.uv(h0) + bary[1] * g.uv(h1) + bary[2] * g.uv(h2);

@@ -49,7 +49,7 @@ Vertex vtx(int i) { return Vertex(static_cast<Mesh::size_type>(i)); }
 // first (what one loop in order would find).
 template <typename F>
 int first_where(int n, F bad) {
-  const int pieces = std::clamp(n / 4096, 1, 4 * parallel::thread_count());
+  const int pieces = parallel::piece_count(n, 4096);
   std::vector<int> first(pieces, -1);
   parallel::for_each(pieces, [&](int piece) {
     for (int i = parallel::piece_begin(n, piece, pieces), e = parallel::piece_begin(n, piece + 1, pieces); i < e; ++i)
@@ -653,7 +653,7 @@ void Solver::step(Garment& garment, double dt) {
   s.im.resize(n, 0.0);
   // In parallel pieces, each marking the blocks it finds disturbed in its own flags.
   std::vector<unsigned char> disturbed(s.blocks, 0);
-  const int pieces = std::clamp(static_cast<int>(n) / 4096, 1, 4 * parallel::thread_count());
+  const int pieces = parallel::piece_count(static_cast<int>(n), 4096);
   std::vector<std::array<unsigned char, SolverArrays::kMaxBlocks>> piece_disturbed(pieces);
   for (auto& d : piece_disturbed) d.fill(0);
   parallel::for_each(pieces, [&](int piece) {

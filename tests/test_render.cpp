@@ -149,6 +149,44 @@ TEST(Render, GarmentInFrontHidesTheBody) {
   EXPECT_TRUE(near(pixel(img, kSize / 2, kSize / 2), Rgb{srgb(0.8), srgb(0.1), srgb(0.1)}, 6));
 }
 
+// A session's frames reuse what the body drew in the last one while the body, camera and size stay
+// the same: a frame drawn so is the frame drawn afresh, and a different body, a copy of the body,
+// a moved camera or another size each get their own picture.
+TEST(Render, RepeatedFramesMatchFreshOnesAndFollowTheBodyAndCamera) {
+  const Garment g = square(0.3, Vec3(0.8, 0.1, 0.1));
+  const Body near_box = box_body(0.7, 0.0), far_box = box_body(0.7, -1.0);
+  Camera side = front_camera();
+  side.eye = Vec3(2.0, 0.5, 2.5);
+  auto same = [](const Image& a, const Image& b) { return a.width == b.width && a.rgba == b.rgba; };
+
+  const Image first = render({&g}, &near_box, front_camera(), kSize, kSize);
+  const Image again = render({&g}, &near_box, front_camera(), kSize, kSize);
+  EXPECT_TRUE(same(first, again));
+  const Body copy = near_box;
+  EXPECT_TRUE(same(first, render({&g}, &copy, front_camera(), kSize, kSize)));
+  // Beside the cloth, the near box shows (grey), not the background.
+  EXPECT_FALSE(is_background(pixel(first, kSize / 2 + 65, kSize / 2)));
+
+  // Another body after the first, with the same camera: its own picture, as drawn after anything else.
+  const Image far_after_near = render({&g}, &far_box, front_camera(), kSize, kSize);
+  render({&g}, &near_box, side, kSize, kSize);
+  const Image far_after_side = render({&g}, &far_box, front_camera(), kSize, kSize);
+  EXPECT_TRUE(same(far_after_near, far_after_side));
+  EXPECT_FALSE(same(first, far_after_near));
+  // A box 1 m further away is smaller on the screen: that pixel is background now.
+  EXPECT_TRUE(is_background(pixel(far_after_near, kSize / 2 + 65, kSize / 2)));
+
+  // The camera moved, and the size changed: each drawn as if first.
+  const Image from_side = render({&g}, &near_box, side, kSize, kSize);
+  EXPECT_FALSE(same(first, from_side));
+  render({&g}, &far_box, front_camera(), kSize, kSize);
+  EXPECT_TRUE(same(from_side, render({&g}, &near_box, side, kSize, kSize)));
+  const Image small = render({&g}, &near_box, front_camera(), kSize / 2, kSize / 2);
+  render({&g}, nullptr, front_camera(), kSize / 2, kSize / 2);
+  EXPECT_TRUE(same(small, render({&g}, &near_box, front_camera(), kSize / 2, kSize / 2)));
+  EXPECT_EQ(small.width, kSize / 2);
+}
+
 TEST(Render, NearerGarmentWinsWhateverTheOrder) {
   const Garment red = square(0.0, Vec3(0.8, 0.1, 0.1));
   const Garment blue = square(0.5, Vec3(0.1, 0.1, 0.8));

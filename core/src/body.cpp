@@ -2,6 +2,7 @@
 
 #include "kiji/error.h"
 
+#include <atomic>
 #include <sstream>
 
 namespace kiji {
@@ -50,6 +51,8 @@ Body Body::from_triangles(std::vector<Vec3> vertices, std::vector<std::array<int
   b.name_ = std::move(name);
   b.vertices_ = std::move(vertices);
   b.triangles_ = std::move(triangles);
+  static std::atomic<std::uint64_t> last_id{0};
+  b.geometry_id_ = ++last_id;
   return b;
 }
 

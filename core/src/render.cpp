@@ -9,7 +9,10 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <deque>
 #include <limits>
+#include <memory>
+#include <mutex>
 #include <sstream>
 #include <vector>
 
@@ -116,22 +119,24 @@ class Raster {
     img.height = h_;
     img.rgba.resize(static_cast<std::size_t>(w_) * h_ * 4);
     const ColorTables& ct = tables();
-    for (int y = 0; y < h_; ++y) {
-      // A light neutral gradient, lighter at the top, so any surface stands out against it.
-      const float t = static_cast<float>(y) / std::max(1, h_ - 1);
-      const std::uint8_t bg = static_cast<std::uint8_t>(std::lround(238 - 38 * t));
-      for (int x = 0; x < w_; ++x) {
-        const std::size_t i = static_cast<std::size_t>(y) * w_ + x;
-        std::uint8_t* p = &img.rgba[4 * i];
-        if (covered_[i]) {
-          for (int k = 0; k < 3; ++k) p[k] = ct.encode(color_[3 * i + k]);
-        } else {
-          p[0] = p[1] = bg;
-          p[2] = static_cast<std::uint8_t>(std::min(255, bg + 4));
+    parallel::for_range(h_, 32, [&](int y0, int y1) {
+      for (int y = y0; y < y1; ++y) {
+        // A light neutral gradient, lighter at the top, so any surface stands out against it.
+        const float t = static_cast<float>(y) / std::max(1, h_ - 1);
+        const std::uint8_t bg = static_cast<std::uint8_t>(std::lround(238 - 38 * t));
+        for (int x = 0; x < w_; ++x) {
+          const std::size_t i = static_cast<std::size_t>(y) * w_ + x;
+          std::uint8_t* p = &img.rgba[4 * i];
+          if (covered_[i]) {
+            for (int k = 0; k < 3; ++k) p[k] = ct.encode(color_[3 * i + k]);
+          } else {
+            p[0] = p[1] = bg;
+            p[2] = static_cast<std::uint8_t>(std::min(255, bg + 4));
+          }
+          p[3] = 255;
         }
-        p[3] = 255;
       }
-    }
+    });
     return img;
   }
 
@@ -249,6 +254,209 @@ View make_view(const Camera& cam, int width, int height) {
   return v;
 }
 
+// Triangles to draw into a raster, in drawing order, each with the bands of rows it reaches. The
+// image is drawn in bands, in parallel: each triangle in the bands its rows reach, in drawing order
+// within each, which gives the same picture as drawing all of it in one, whatever the band count.
+class Batch {
+ public:
+  explicit Batch(int height) : height_(height), bands_(std::min({height, 4 * parallel::thread_count(), 128})) {
+    band_of_row_.resize(height);
+    for (int y = 0; y < height; ++y) band_of_row_[y] = static_cast<std::uint8_t>(std::int64_t(y) * bands_ / height);
+  }
+
+  void add_body(const Body& body, const View& view) {
+    const auto& vs = body.vertices();
+    const auto& ts = body.triangles();
+    const int nv = static_cast<int>(vs.size()), nt = static_cast<int>(ts.size());
+    Part& part = new_part(nv, nt);
+    // Vertex normals: the faces' (area-weighted) summed in triangle order, as one thread would.
+    std::vector<Vec3> fn(nt), n(nv, Vec3::Zero());
+    parallel::for_range(nt, kGrain, [&](int b0, int b1) {
+      for (int t = b0; t < b1; ++t) fn[t] = (vs[ts[t][1]] - vs[ts[t][0]]).cross(vs[ts[t][2]] - vs[ts[t][0]]);
+    });
+    for (int t = 0; t < nt; ++t)
+      for (int k = 0; k < 3; ++k) n[ts[t][k]] += fn[t];
+    parallel::for_range(nv, kGrain, [&](int b0, int b1) {
+      for (int i = b0; i < b1; ++i) {
+        part.p[i] = view.to_camera(vs[i]);
+        part.n[i] = view.dir_to_camera(n[i]);
+        part.s[i] = view.to_screen(part.p[i]);
+      }
+    });
+    part.surface = Surface{nullptr, kBodyColor.cast<float>()};
+    const int id = static_cast<int>(parts_.size()) - 1;
+    const std::size_t first = tris_.size() - nt;
+    parallel::for_range(nt, kGrain, [&](int b0, int b1) {
+      for (int t = b0; t < b1; ++t) add(part, {id, {ts[t][0], ts[t][1], ts[t][2]}, {-1, -1, -1}}, first + t);
+    });
+  }
+
+  void add_garment(const Garment& g, const View& view) {
+    const Mesh& m = g.mesh();
+    const int nv = static_cast<int>(g.vertex_capacity());
+    const int nf = static_cast<int>(m.number_of_faces() + m.number_of_removed_faces());
+    Part& part = new_part(nv, nf);
+    parallel::for_range(nv, kGrain, [&](int b0, int b1) {
+      for (int i = b0; i < b1; ++i) {
+        const Vertex v(i);
+        if (m.is_removed(v)) continue;
+        part.p[i] = view.to_camera(g.position(v));
+        part.s[i] = view.to_screen(part.p[i]);
+      }
+    });
+    // Each face's corners, normal and bands (in parallel); the vertex normals summed in face order.
+    std::vector<Tri> ft(nf);
+    std::vector<Vec3> fn(nf);
+    std::vector<unsigned char> is_tri(nf, 0);
+    const int id = static_cast<int>(parts_.size()) - 1;
+    const std::size_t first = tris_.size() - nf;
+    parallel::for_range(nf, kGrain, [&](int b0, int b1) {
+      for (int f = b0; f < b1; ++f) {
+        const Face face(f);
+        if (m.is_removed(face)) continue;
+        Tri t{id, {}, {}};
+        int k = 0;
+        for (Halfedge h : CGAL::halfedges_around_face(m.halfedge(face), m)) {
+          if (k == 3) break;
+          t.v[k] = static_cast<int>(m.target(h).idx());
+          t.h[k++] = static_cast<int>(h.idx());
+        }
+        if (k != 3) continue;
+        const Vec3 a = g.position(Vertex(t.v[0])), b = g.position(Vertex(t.v[1])), c = g.position(Vertex(t.v[2]));
+        fn[f] = (b - a).cross(c - a);
+        ft[f] = t;
+        is_tri[f] = 1;
+        add(part, t, first + f);  // needs the corners on the screen only, not the normals
+      }
+    });
+    std::vector<Vec3> n(nv, Vec3::Zero());
+    for (int f = 0; f < nf; ++f)
+      if (is_tri[f])
+        for (int q = 0; q < 3; ++q) n[ft[f].v[q]] += fn[f];
+    parallel::for_range(nv, kGrain, [&](int b0, int b1) {
+      for (int i = b0; i < b1; ++i)
+        if (!m.is_removed(Vertex(i))) part.n[i] = view.dir_to_camera(n[i]);
+    });
+    const bool textured = !g.texture().empty() &&
+                          g.texture().rgba.size() == static_cast<std::size_t>(g.texture().width) * g.texture().height * 4;
+    part.surface = Surface{textured ? &g.texture() : nullptr, g.color.cast<float>()};
+    if (textured) part.garment = &g;
+  }
+
+  void draw(Raster& raster) const {
+    // Each band's triangles, in drawing order: most triangles of a fine cloth reach none.
+    std::vector<std::vector<int>> in_band(bands_);
+    for (std::size_t t = 0; t < tris_.size(); ++t)
+      for (int b = reach_[t][0]; b <= reach_[t][1]; ++b) in_band[b].push_back(static_cast<int>(t));
+    parallel::for_range(bands_, 1, [&](int b0, int b1) {
+      for (int b = b0; b < b1; ++b) {
+        const int row0 = static_cast<int>((std::int64_t(b) * height_ + bands_ - 1) / bands_);
+        const int row1 = static_cast<int>((std::int64_t(b + 1) * height_ + bands_ - 1) / bands_);
+        for (const int t : in_band[b]) {
+          const Tri& tri = tris_[t];
+          const Part& part = parts_[tri.part];
+          Corner c[3];
+          for (int k = 0; k < 3; ++k) {
+            const V2 uv = part.garment ? V2(part.garment->uv(Halfedge(tri.h[k])).cast<float>()) : V2::Zero();
+            c[k] = Corner{part.p[tri.v[k]], part.n[tri.v[k]], uv, part.s[tri.v[k]]};
+          }
+          raster.triangle(c[0], c[1], c[2], part.surface, row0, row1);
+        }
+      }
+    });
+  }
+
+ private:
+  static constexpr int kGrain = 4096;
+  struct Part {
+    std::vector<V3> p, n, s;           // a vertex's position, normal and screen point
+    const Garment* garment = nullptr;  // its uv (by halfedge), if it has a texture
+    Surface surface;
+  };
+  struct Tri {
+    int part;
+    int v[3];
+    int h[3];  // halfedges, for the uv
+  };
+
+  // A part of nv vertices with `slots` triangle slots after the others' (the body's in triangle
+  // order, a garment's in face index order); a slot that is not drawn (off the screen, removed,
+  // not a triangle) reaches no band.
+  Part& new_part(int nv, int slots) {
+    parts_.emplace_back();
+    Part& part = parts_.back();
+    part.p.resize(nv);
+    part.n.resize(nv);
+    part.s.resize(nv);
+    tris_.resize(tris_.size() + slots);
+    reach_.resize(reach_.size() + slots, kNone);
+    return part;
+  }
+
+  void add(const Part& part, const Tri& t, std::size_t slot) {
+    float lo = std::numeric_limits<float>::max(), hi = -lo, left = lo, right = -lo;
+    bool all_in_front = true;
+    for (int k = 0; k < 3; ++k) {
+      if (!(part.p[t.v[k]].z() >= kNear)) all_in_front = false;
+      lo = std::min(lo, part.s[t.v[k]].y());
+      hi = std::max(hi, part.s[t.v[k]].y());
+      left = std::min(left, part.s[t.v[k]].x());
+      right = std::max(right, part.s[t.v[k]].x());
+    }
+    std::array<std::uint8_t, 2> r{0, static_cast<std::uint8_t>(bands_ - 1)};  // clipped at the near plane: all
+    if (all_in_front) {
+      if (!(hi >= 0 && lo <= height_)) return;  // off the screen, or not finite
+      // No pixel's centre within its box (most triangles of a fine cloth): it covers none.
+      if (std::ceil(lo - 0.5f) > std::floor(hi - 0.5f) || std::ceil(left - 0.5f) > std::floor(right - 0.5f)) return;
+      r[0] = band_of_row_[std::clamp(static_cast<int>(std::floor(lo)) - 1, 0, height_ - 1)];
+      r[1] = band_of_row_[std::clamp(static_cast<int>(std::ceil(hi)) + 1, 0, height_ - 1)];
+    }
+    tris_[slot] = t;
+    reach_[slot] = r;
+  }
+
+  static constexpr std::array<std::uint8_t, 2> kNone{1, 0};  // first > last: no band
+  int height_, bands_;
+  std::vector<std::uint8_t> band_of_row_;
+  std::deque<Part> parts_;  // stable addresses while parts are added
+  std::vector<Tri> tris_;
+  std::vector<std::array<std::uint8_t, 2>> reach_;
+};
+
+// What the body alone draws in a view: a body does not move, so while the camera and the image size
+// stay the same (a session's frames), the next frame starts from a copy of it. One layer is kept,
+// for the body drawn last, and only for images of up to 2.5 million pixels (17 bytes a pixel).
+struct BodyLayer {
+  std::uint64_t body = 0;
+  Camera camera;
+  int width = 0, height = 0;
+  std::shared_ptr<const Raster> raster;
+};
+
+bool same_camera(const Camera& a, const Camera& b) {
+  return a.eye == b.eye && a.target == b.target && a.up == b.up && a.fov_degrees == b.fov_degrees;
+}
+
+Raster body_layer(const Body& body, const Camera& camera, const View& view, int width, int height) {
+  static std::mutex mutex;
+  static BodyLayer kept;
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    if (kept.raster && kept.body == body.geometry_id() && kept.width == width && kept.height == height &&
+        same_camera(kept.camera, camera))
+      return *kept.raster;
+  }
+  Raster raster(width, height, view);
+  Batch batch(height);
+  batch.add_body(body, view);
+  batch.draw(raster);
+  if (std::int64_t(width) * height <= 2500000) {
+    std::lock_guard<std::mutex> lock(mutex);
+    kept = BodyLayer{body.geometry_id(), camera, width, height, std::make_shared<const Raster>(raster)};
+  }
+  return raster;
+}
+
 }  // namespace
 
 Camera Camera::framing(const Box3& box) {
@@ -274,164 +482,14 @@ Image render(const std::vector<const Garment*>& garments, const Body* body, cons
   for (std::size_t i = 0; i < garments.size(); ++i)
     if (!garments[i]) throw InputError("garment " + std::to_string(i) + " to render is null");
   const View view = make_view(camera, width, height);
-  Raster raster(width, height, view);
-
-  // The image is drawn in bands of rows, in parallel: each triangle in the bands its rows reach,
-  // in drawing order within each, which gives the same picture as drawing all of it in one.
-  const int bands = std::min({height, 4 * parallel::thread_count(), 128});
-  std::vector<std::uint8_t> band_of_row(height);
-  for (int y = 0; y < height; ++y) band_of_row[y] = static_cast<std::uint8_t>(std::int64_t(y) * bands / height);
-
-  // Every surface's corners in camera space and on the screen, and its triangles in drawing order
-  // (the body, then each garment in turn), each with the first and last band it reaches.
-  struct Part {
-    std::vector<V3> p, n, s;              // a vertex's position, normal and screen point
-    const Garment* garment = nullptr;     // its uv (by halfedge), if it has a texture
-    Surface surface;
-  };
-  struct Tri {
-    int part;
-    int v[3];
-    int h[3];  // halfedges, for the uv
-  };
-  // Each triangle has its slot (the body's, then each garment's in face index order), filled in
-  // parallel; one that is not drawn (off the screen, removed, not a triangle) reaches no band.
-  std::vector<Part> parts;
-  std::vector<Tri> tris;
-  std::vector<std::array<std::uint8_t, 2>> reach;  // the first and last band; first > last: none
-  constexpr std::array<std::uint8_t, 2> kNone{1, 0};
-  std::size_t slots = body ? body->triangles().size() : 0;
-  for (const Garment* g : garments) slots += g->mesh().number_of_faces() + g->mesh().number_of_removed_faces();
-  tris.resize(slots);
-  reach.assign(slots, kNone);
-  auto add = [&](const Part& part, const Tri& t, std::size_t slot) {
-    float lo = std::numeric_limits<float>::max(), hi = -lo, left = lo, right = -lo;
-    bool all_in_front = true;
-    for (int k = 0; k < 3; ++k) {
-      if (!(part.p[t.v[k]].z() >= kNear)) all_in_front = false;
-      lo = std::min(lo, part.s[t.v[k]].y());
-      hi = std::max(hi, part.s[t.v[k]].y());
-      left = std::min(left, part.s[t.v[k]].x());
-      right = std::max(right, part.s[t.v[k]].x());
-    }
-    std::array<std::uint8_t, 2> r{0, static_cast<std::uint8_t>(bands - 1)};  // clipped at the near plane: all
-    if (all_in_front) {
-      if (!(hi >= 0 && lo <= height)) return;  // off the screen, or not finite
-      // No pixel's centre within its box (most triangles of a fine cloth): it covers none.
-      if (std::ceil(lo - 0.5f) > std::floor(hi - 0.5f) || std::ceil(left - 0.5f) > std::floor(right - 0.5f)) return;
-      r[0] = band_of_row[std::clamp(static_cast<int>(std::floor(lo)) - 1, 0, height - 1)];
-      r[1] = band_of_row[std::clamp(static_cast<int>(std::ceil(hi)) + 1, 0, height - 1)];
-    }
-    tris[slot] = t;
-    reach[slot] = r;
-  };
-  constexpr int kGrain = 4096;
-  std::size_t first = 0;  // the part's first slot
-  if (body) {
-    const auto& vs = body->vertices();
-    const auto& ts = body->triangles();
-    const int nv = static_cast<int>(vs.size()), nt = static_cast<int>(ts.size());
-    Part part;
-    part.p.resize(nv);
-    part.n.resize(nv);
-    part.s.resize(nv);
-    // Vertex normals: the faces' (area-weighted) summed in triangle order, as one thread would.
-    std::vector<Vec3> fn(nt), n(nv, Vec3::Zero());
-    parallel::for_range(nt, kGrain, [&](int b0, int b1) {
-      for (int t = b0; t < b1; ++t) fn[t] = (vs[ts[t][1]] - vs[ts[t][0]]).cross(vs[ts[t][2]] - vs[ts[t][0]]);
-    });
-    for (int t = 0; t < nt; ++t)
-      for (int k = 0; k < 3; ++k) n[ts[t][k]] += fn[t];
-    parallel::for_range(nv, kGrain, [&](int b0, int b1) {
-      for (int i = b0; i < b1; ++i) {
-        part.p[i] = view.to_camera(vs[i]);
-        part.n[i] = view.dir_to_camera(n[i]);
-        part.s[i] = view.to_screen(part.p[i]);
-      }
-    });
-    part.surface = Surface{nullptr, kBodyColor.cast<float>()};
-    parallel::for_range(nt, kGrain, [&](int b0, int b1) {
-      for (int t = b0; t < b1; ++t) add(part, {0, {ts[t][0], ts[t][1], ts[t][2]}, {-1, -1, -1}}, first + t);
-    });
-    first += nt;
-    parts.push_back(std::move(part));
+  // The body first (from the last frame's layer when the body, camera and size are the same), then
+  // each garment in turn over it.
+  Raster raster = body ? body_layer(*body, camera, view, width, height) : Raster(width, height, view);
+  if (!garments.empty()) {
+    Batch batch(height);
+    for (const Garment* g : garments) batch.add_garment(*g, view);
+    batch.draw(raster);
   }
-  for (const Garment* g : garments) {
-    const Mesh& m = g->mesh();
-    const int nv = static_cast<int>(g->vertex_capacity());
-    const int nf = static_cast<int>(m.number_of_faces() + m.number_of_removed_faces());
-    Part part;
-    part.p.resize(nv);
-    part.s.resize(nv);
-    part.n.resize(nv);
-    parallel::for_range(nv, kGrain, [&](int b0, int b1) {
-      for (int i = b0; i < b1; ++i) {
-        const Vertex v(i);
-        if (m.is_removed(v)) continue;
-        part.p[i] = view.to_camera(g->position(v));
-        part.s[i] = view.to_screen(part.p[i]);
-      }
-    });
-    // Each face's corners and normal (in parallel); the vertex normals summed in face order.
-    std::vector<Tri> ft(nf);
-    std::vector<Vec3> fn(nf);
-    std::vector<unsigned char> is_tri(nf, 0);
-    const int id = static_cast<int>(parts.size());
-    parallel::for_range(nf, kGrain, [&](int b0, int b1) {
-      for (int f = b0; f < b1; ++f) {
-        const Face face(f);
-        if (m.is_removed(face)) continue;
-        Tri t{id, {}, {}};
-        int k = 0;
-        for (Halfedge h : CGAL::halfedges_around_face(m.halfedge(face), m)) {
-          if (k == 3) break;
-          t.v[k] = static_cast<int>(m.target(h).idx());
-          t.h[k++] = static_cast<int>(h.idx());
-        }
-        if (k != 3) continue;
-        const Vec3 a = g->position(Vertex(t.v[0])), b = g->position(Vertex(t.v[1])), c = g->position(Vertex(t.v[2]));
-        fn[f] = (b - a).cross(c - a);
-        ft[f] = t;
-        is_tri[f] = 1;
-      }
-    });
-    std::vector<Vec3> n(nv, Vec3::Zero());
-    for (int f = 0; f < nf; ++f)
-      if (is_tri[f])
-        for (int q = 0; q < 3; ++q) n[ft[f].v[q]] += fn[f];
-    parallel::for_range(nv, kGrain, [&](int b0, int b1) {
-      for (int i = b0; i < b1; ++i)
-        if (!m.is_removed(Vertex(i))) part.n[i] = view.dir_to_camera(n[i]);
-    });
-    parallel::for_range(nf, kGrain, [&](int b0, int b1) {
-      for (int f = b0; f < b1; ++f)
-        if (is_tri[f]) add(part, ft[f], first + f);
-    });
-    first += nf;
-    const bool textured = !g->texture().empty() &&
-                          g->texture().rgba.size() == static_cast<std::size_t>(g->texture().width) * g->texture().height * 4;
-    part.surface = Surface{textured ? &g->texture() : nullptr, g->color.cast<float>()};
-    if (textured) part.garment = g;
-    parts.push_back(std::move(part));
-  }
-
-  parallel::for_range(bands, 1, [&](int b0, int b1) {
-    for (int b = b0; b < b1; ++b) {
-      const int row0 = static_cast<int>((std::int64_t(b) * height + bands - 1) / bands);
-      const int row1 = static_cast<int>((std::int64_t(b + 1) * height + bands - 1) / bands);
-      for (std::size_t t = 0; t < tris.size(); ++t) {
-        if (b < reach[t][0] || b > reach[t][1]) continue;
-        const Tri& tri = tris[t];
-        const Part& part = parts[tri.part];
-        Corner c[3];
-        for (int k = 0; k < 3; ++k) {
-          const V2 uv = part.garment ? V2(part.garment->uv(Halfedge(tri.h[k])).cast<float>()) : V2::Zero();
-          c[k] = Corner{part.p[tri.v[k]], part.n[tri.v[k]], uv, part.s[tri.v[k]]};
-        }
-        raster.triangle(c[0], c[1], c[2], part.surface, row0, row1);
-      }
-    }
-  });
   return raster.finish();
 }
 

@@ -4,6 +4,7 @@
 #include "kiji/types.h"
 
 #include <array>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -57,12 +58,16 @@ class Body {
   double height() const { return bounds().sizes().y(); }
   // Outward unit normal of triangle t.
   Vec3 triangle_normal(std::size_t t) const;
+  // A number naming this body's geometry: a copy of a body has its number, any other body its own.
+  // A body does not change, so what was drawn or built of one body holds for every copy of it.
+  std::uint64_t geometry_id() const { return geometry_id_; }
 
  private:
   std::string name_;
   std::vector<Vec3> vertices_;
   std::vector<std::array<int, 3>> triangles_;
   BodyImportReport report_;
+  std::uint64_t geometry_id_ = 0;  // 0: the empty body
 };
 
 }  // namespace kiji

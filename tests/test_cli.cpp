@@ -119,4 +119,21 @@ TEST(Cli, BenchPrintsEveryFigureAsJson) {
   r = run("bench --sizes 3,x");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("--sizes expects vertex counts"), std::string::npos) << r.out;
+  r = run("bench --quick --tools pinch,tweak");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("'tweak' is not a row of the tables"), std::string::npos) << r.out;
+}
+
+TEST(Cli, BenchToolsPicksTheRowsOfThePapersTables) {
+  CliRun r = run("bench --quick --json --sizes 289 --tools pinch_local,sew");
+  ASSERT_EQ(r.code, 0) << r.out;
+  // The measured rows (the paper's own figures, beside them, have every tool).
+  const std::size_t from = r.out.find("\"tool_rates\":"), to = r.out.find("\"versus_bullet\":");
+  ASSERT_NE(from, std::string::npos);
+  ASSERT_NE(to, std::string::npos);
+  const std::string rates = r.out.substr(from, to - from);
+  EXPECT_NE(rates.find("\"pinch_local\": {\"steps_per_second\":"), std::string::npos) << rates;
+  EXPECT_NE(rates.find("\"sew\": {\"steps_per_second\":"), std::string::npos) << rates;
+  for (const char* absent : {"\"pinch\":", "\"pinch_landing\":", "\"tear\":", "\"cut\":", "\"paint\":"})
+    EXPECT_EQ(rates.find(absent), std::string::npos) << absent << " was not asked for: " << rates;
 }

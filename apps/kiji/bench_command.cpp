@@ -17,6 +17,7 @@
 #include <BulletSoftBody/btSoftBodyRigidBodyCollisionConfiguration.h>
 #include <BulletSoftBody/btSoftRigidDynamicsWorld.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -118,10 +119,14 @@ Garment settled_on(const Body& body, int vertices, std::shared_ptr<ToolRegistry>
   return out;
 }
 
-std::vector<ToolRate> tool_rates(const Body& body, int vertices, int frames, std::shared_ptr<ToolRegistry> tools) {
+// The rows of the paper's tables, in the order they are measured.
+const std::vector<std::string> kToolRows = {"pinch", "pinch_local", "pinch_landing", "tear", "cut", "sew", "paint"};
+
+std::vector<ToolRate> tool_rates(const Body& body, int vertices, int frames, std::shared_ptr<ToolRegistry> tools,
+                                 const std::vector<std::string>& rows) {
   std::vector<ToolRate> out;
   const Garment settled = settled_on(body, vertices, tools);
-  for (const std::string name : {"pinch", "pinch_local", "pinch_landing", "tear", "cut", "sew", "paint"}) {
+  for (const std::string& name : rows) {
     const bool local = name == "pinch_local", landing = name == "pinch_landing";
     const std::string tool = (local || landing) ? "pinch" : name;
     Session s(tools);
@@ -329,16 +334,18 @@ HapticStats haptics(const Body& body, int vertices, double seconds, std::shared_
 }  // namespace
 
 int bench_command(const std::vector<std::string>& argv) {
-  const Args args(argv, {"--sizes", "--bullet-sizes", "--scaling-sizes", "--haptic-vertices", "--haptic-seconds", "--frames"},
+  const Args args(argv, {"--sizes", "--tools", "--bullet-sizes", "--scaling-sizes", "--haptic-vertices", "--haptic-seconds",
+                   "--frames"},
                   {"--json", "--quick", "--help", "-h"});
   if (args.has("--help") || args.has("-h")) {
     std::puts(
-        "usage: kiji bench [--json] [--quick] [--sizes V,V,...] [--bullet-sizes V,...] [--scaling-sizes V,...]\n"
-        "                  [--haptic-vertices V] [--haptic-seconds S] [--frames N]\n\n"
+        "usage: kiji bench [--json] [--quick] [--sizes V,V,...] [--tools T,T,...] [--bullet-sizes V,...]\n"
+        "                  [--scaling-sizes V,...] [--haptic-vertices V] [--haptic-seconds S] [--frames N]\n\n"
         "Measures on this machine: (1) the paper's tables 1-2, steps and frames a second while each tool is in\n"
         "use, on the default body; (2) Kiji's solvers beside Bullet's btSoftBody on the same cloth; (3) the\n"
         "haptic loop while a garment simulates; (4) time per step and memory per vertex against size.\n"
-        "--quick uses tiny sizes (a check that everything runs, not figures to quote).");
+        "--quick uses tiny sizes (a check that everything runs, not figures to quote). --tools picks the rows of\n"
+        "(1): pinch, pinch_local, pinch_landing, tear, cut, sew, paint (all by default).");
     return 0;
   }
   const bool quick = args.has("--quick");
@@ -361,6 +368,18 @@ int bench_command(const std::vector<std::string>& argv) {
   const auto tool_sizes = sizes_of("--sizes", {289, 400, 521, 5000, 20000, 50000}, {289, 400});
   const auto bullet_sizes = sizes_of("--bullet-sizes", {500, 5000, 20000, 50000}, {100, 400});
   const auto scaling_sizes = sizes_of("--scaling-sizes", {500, 2000, 5000, 20000, 50000, 100000}, {100, 400});
+  std::vector<std::string> rows = kToolRows;
+  if (args.has("--tools")) {
+    rows.clear();
+    std::stringstream ss(args.get("--tools", ""));
+    std::string item;
+    while (std::getline(ss, item, ',')) {
+      if (std::find(kToolRows.begin(), kToolRows.end(), item) == kToolRows.end())
+        throw UsageError("--tools: '" + item + "' is not a row of the tables: use pinch, pinch_local, pinch_landing, tear, cut, sew or paint");
+      rows.push_back(item);
+    }
+    if (rows.empty()) throw UsageError("--tools expects one or more of pinch, pinch_local, pinch_landing, tear, cut, sew, paint");
+  }
   const int haptic_vertices = static_cast<int>(args.number("--haptic-vertices", quick ? 400 : 20000));
   const double haptic_seconds = args.number("--haptic-seconds", quick ? 0.3 : 3.0);
   const int frames = static_cast<int>(args.number("--frames", quick ? 3 : 30));
@@ -385,7 +404,7 @@ int bench_command(const std::vector<std::string>& argv) {
       body.name().c_str(), kLocalRadius);
   std::vector<std::string> table;
   for (int v : tool_sizes) {
-    const auto rates = tool_rates(body, v, frames, tools);
+    const auto rates = tool_rates(body, v, frames, tools, rows);
     Json row;
     row.number("vertices", double(v));
     say("   V = %6d:", v);

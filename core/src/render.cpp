@@ -11,8 +11,8 @@
 #include <cstdint>
 #include <deque>
 #include <limits>
-#include <memory>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <vector>
 
@@ -430,7 +430,7 @@ struct BodyLayer {
   std::uint64_t body = 0;
   Camera camera;
   int width = 0, height = 0;
-  std::shared_ptr<const Raster> raster;
+  std::optional<Raster> raster;
 };
 
 bool same_camera(const Camera& a, const Camera& b) {
@@ -452,7 +452,7 @@ Raster body_layer(const Body& body, const Camera& camera, const View& view, int 
   batch.draw(raster);
   if (std::int64_t(width) * height <= 2500000) {
     std::lock_guard<std::mutex> lock(mutex);
-    kept = BodyLayer{body.geometry_id(), camera, width, height, std::make_shared<const Raster>(raster)};
+    kept = BodyLayer{body.geometry_id(), camera, width, height, raster};
   }
   return raster;
 }

@@ -370,15 +370,17 @@ int bench_command(const std::vector<std::string>& argv) {
   const auto scaling_sizes = sizes_of("--scaling-sizes", {500, 2000, 5000, 20000, 50000, 100000}, {100, 400});
   std::vector<std::string> rows = kToolRows;
   if (args.has("--tools")) {
+    std::string names;
+    for (const std::string& r : kToolRows) names += (names.empty() ? "" : ", ") + r;
     rows.clear();
     std::stringstream ss(args.get("--tools", ""));
     std::string item;
     while (std::getline(ss, item, ',')) {
       if (std::find(kToolRows.begin(), kToolRows.end(), item) == kToolRows.end())
-        throw UsageError("--tools: '" + item + "' is not a row of the tables: use pinch, pinch_local, pinch_landing, tear, cut, sew or paint");
+        throw UsageError("--tools: '" + item + "' is not a row of the tables: use one or more of " + names);
       rows.push_back(item);
     }
-    if (rows.empty()) throw UsageError("--tools expects one or more of pinch, pinch_local, pinch_landing, tear, cut, sew, paint");
+    if (rows.empty()) throw UsageError("--tools expects one or more of " + names);
   }
   const int haptic_vertices = static_cast<int>(args.number("--haptic-vertices", quick ? 400 : 20000));
   const double haptic_seconds = args.number("--haptic-seconds", quick ? 0.3 : 3.0);

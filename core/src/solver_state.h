@@ -104,7 +104,7 @@ struct SolverArrays {
     double rest;
   };
   std::vector<OverEdge> over;  // edges beyond the strain limit this substep, in edge order
-  std::vector<std::vector<int>> over_pieces;  // the scan's pieces: the edges beyond, found in each
+  std::vector<std::vector<int>> over_pieces;  // each scan piece's scratch: its edges' indices, those beyond first
   std::vector<std::vector<OverEdge>> over_found;  // each piece's edges beyond, with their ends
   std::vector<int> over_runs;  // where each colour starts in `over`
 

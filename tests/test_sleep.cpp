@@ -2,6 +2,7 @@
 #include "kiji/error.h"
 #include "kiji/pattern.h"
 #include "kiji/solver.h"
+#include "kiji/topology.h"
 
 #include "test_shapes.h"
 
@@ -145,6 +146,83 @@ TEST(Sleep, NewPhysicsWakesEverything) {
   run(solver, g, 10);
   EXPECT_EQ(solver.measure(g).sleeping, 0u);
   for (Vertex v : g.mesh().vertices()) ASSERT_GT(g.position(v).x(), before.position(v).x() + 0.01);
+}
+
+TEST(Sleep, ANewSolverFindsTheClothAsleepWhereItSleptAndWakesOnlyWhatChanged) {
+  // A garment taken to a new solver (a new session, an undo) keeps sleeping where it slept: nothing
+  // of it moves or is computed until something disturbs it.
+  const Body floor = test::make_floor();
+  Garment g = cloth_on_floor();
+  Solver first;
+  first.set_body(&floor);
+  ASSERT_NO_FATAL_FAILURE(sleep_on(first, g));
+  const std::size_t all = g.mesh().number_of_vertices();
+  {
+    Garment copy = g;
+    Solver fresh;
+    fresh.set_body(&floor);
+    run(fresh, copy, 10);
+    EXPECT_EQ(fresh.measure(copy).sleeping, all) << "the whole cloth asleep from the new solver's first step";
+    EXPECT_EQ(largest_gap(copy, g), 0.0);
+  }
+  {
+    // One vertex of the copy raised 1 mm (less than sleep_distance, so that its motion wakes no
+    // neighbour): its block wakes and it settles back; the rest sleeps on.
+    Garment copy = g;
+    const Vertex v(65 * 32 + 32);
+    const double th = copy.material().thickness;
+    copy.set_position(v, copy.position(v) + Vec3(0, 0.001, 0));
+    Solver fresh;
+    fresh.set_body(&floor);
+    fresh.step(copy, 1.0 / 60);
+    EXPECT_LT(fresh.measure(copy).sleeping, all);
+    EXPECT_GT(fresh.measure(copy).sleeping, 0u) << "the blocks away from the edit sleep on";
+    run(fresh, copy, 30);
+    EXPECT_LT(copy.position(v).y(), th + 0.0002) << "back on the floor, not left floating";
+  }
+  {
+    // A pin let go in the copy wakes its block the same way.
+    Garment pinned = cloth_on_floor();
+    pinned.set_pinned(Vertex(0), true);
+    Solver hold;
+    hold.set_body(&floor);
+    ASSERT_NO_FATAL_FAILURE(sleep_on(hold, pinned));
+    Garment copy = pinned;
+    copy.set_pinned(Vertex(0), false);
+    Solver fresh;
+    fresh.set_body(&floor);
+    fresh.step(copy, 1.0 / 60);
+    EXPECT_LT(fresh.measure(copy).sleeping, all) << "the block of the pin let go is awake";
+    EXPECT_GT(fresh.measure(copy).sleeping, 0u);
+  }
+  {
+    // Other physics (here the friction) in the copy: nothing of the record holds, all wakes.
+    Garment copy = g;
+    Material m = copy.material();
+    m.friction = 0.9;
+    copy.set_material(m);
+    Solver fresh;
+    fresh.set_body(&floor);
+    fresh.step(copy, 1.0 / 60);
+    EXPECT_EQ(fresh.measure(copy).sleeping, 0u);
+  }
+}
+
+TEST(Sleep, ATopologyEditWakesOnlyTheClothAroundIt) {
+  // A slit cut near one corner of a sleeping cloth: the solver rebuilds its arrays, but only the
+  // block the cut goes through wakes.
+  const Body floor = test::make_floor();
+  Garment g = cloth_on_floor();
+  Solver solver;
+  solver.set_body(&floor);
+  ASSERT_NO_FATAL_FAILURE(sleep_on(solver, g));
+  const std::size_t all = g.mesh().number_of_vertices();
+  cut_along(g, edge_path(g, Vertex(65 * 5 + 3), Vertex(65 * 5 + 12)));
+  ASSERT_GT(g.mesh().number_of_vertices(), all) << "the cut split the vertices along it";
+  solver.step(g, 1.0 / 60);
+  const std::size_t sleeping = solver.measure(g).sleeping;
+  EXPECT_GT(sleeping, 0u) << "the blocks away from the cut sleep on";
+  EXPECT_LT(sleeping, all) << "the block the cut goes through is awake";
 }
 
 TEST(Sleep, ParametersOutOfRangeAreRefusedByName) {

@@ -429,6 +429,24 @@ TEST(Pin, PinsAndUnpinsTheClothUnderTheBrush) {
   EXPECT_LT(s.garment(0).bounds().max().y(), 0.9) << "freed, the top falls too";
 }
 
+TEST(Session, UndoReturnsTheClothToRestAsleep) {
+  // A cloth at rest (asleep), pulled by a pinch, then the pinch undone: the cloth is back where it
+  // was and asleep from the next step, not woken whole to find its rest again.
+  auto owner = flat_session(1.0, 1.0, 65, 65);
+  Session& s = *owner;
+  for (int i = 0; i < 60; ++i) s.step();
+  const std::size_t all = s.garment(0).mesh().number_of_vertices();
+  ASSERT_EQ(s.solver(0).measure(s.garment(0)).sleeping, all) << "at rest for 1 s";
+  const Garment before = s.garment(0);
+  s.run("pinch", s.params_for("pinch"), line(Vec3(0.1, 0.1, 0.0), Vec3(0.1, 0.1, 0.2), 20, s.time()));
+  for (int i = 0; i < 10; ++i) s.step();
+  ASSERT_LT(s.solver(0).measure(s.garment(0)).sleeping, all) << "the pinch woke the cloth";
+  ASSERT_TRUE(s.undo());
+  s.step();
+  EXPECT_EQ(s.solver(0).measure(s.garment(0)).sleeping, all);
+  for (Vertex v : before.mesh().vertices()) ASSERT_EQ(s.garment(0).position(v), before.position(v));
+}
+
 TEST(Session, BadEventsAndParametersAreClearErrorsAndLoseNothing) {
   auto owner = flat_session(1.0, 1.0, 11, 11);
   Session& s = *owner;

@@ -73,7 +73,8 @@ Garment::Garment(const Garment& other)
       material_(other.material_),
       texture_(other.texture_),
       pattern_scale_(other.pattern_scale_),
-      topology_version_(fresh_version()) {
+      topology_version_(fresh_version()),
+      sleep_record_(other.sleep_record_) {
   attach_maps();
 }
 
@@ -87,6 +88,7 @@ Garment& Garment::operator=(const Garment& other) {
   texture_ = other.texture_;
   pattern_scale_ = other.pattern_scale_;
   topology_version_ = fresh_version();  // a different mesh: solvers must rebuild
+  sleep_record_ = other.sleep_record_;
   attach_maps();
   return *this;
 }
@@ -99,7 +101,8 @@ Garment::Garment(Garment&& other) noexcept
       material_(std::move(other.material_)),
       texture_(std::move(other.texture_)),
       pattern_scale_(other.pattern_scale_),
-      topology_version_(fresh_version()) {
+      topology_version_(fresh_version()),
+      sleep_record_(std::move(other.sleep_record_)) {
   attach_maps();
 }
 
@@ -112,6 +115,7 @@ Garment& Garment::operator=(Garment&& other) noexcept {
   texture_ = std::move(other.texture_);
   pattern_scale_ = other.pattern_scale_;
   topology_version_ = fresh_version();
+  sleep_record_ = std::move(other.sleep_record_);
   attach_maps();
   return *this;
 }
@@ -266,6 +270,7 @@ void Garment::compact() {
   std::unordered_map<std::uint32_t, Vertex> now;
   for (Vertex v : mesh_.vertices()) now[old_index[v]] = v;
   mesh_.remove_property_map(old_index);
+  sleep_record_.reset();  // it is by vertex index
   for (auto& [a, b] : tacks) {
     a = now.at(a.idx());
     b = now.at(b.idx());

@@ -606,7 +606,8 @@ void rebuild(SolverArrays& s, const Garment& g) {
   s.cand.clear();
   s.contact_verts.clear();
   s.self_pairs.clear();
-  s.sleep_ready = false;  // everything awake
+  s.sleep_ready = false;  // everything awake, but what the garment's sleep record finds as it slept
+  s.edge_keys_stale = true;
   s.built = true;
 }
 
@@ -656,6 +657,7 @@ void Solver::step(Garment& garment, double dt) {
   const int pieces = parallel::piece_count(static_cast<int>(n), 4096);
   std::vector<std::array<unsigned char, SolverArrays::kMaxBlocks>> piece_disturbed(pieces);
   for (auto& d : piece_disturbed) d.fill(0);
+  std::vector<unsigned char> piece_rest_changed(pieces, 0);
   parallel::for_each(pieces, [&](int piece) {
     unsigned char* dist = piece_disturbed[piece].data();
     const int i1 = parallel::piece_begin(static_cast<int>(n), piece + 1, pieces);
@@ -666,12 +668,17 @@ void Solver::step(Garment& garment, double dt) {
         continue;
       }
       const Vertex v = vtx(i);
-      s.x[i] = garment.position(v);
+      const Vec3 x = garment.position(v);
+      const double im = garment.inverse_mass(v);
+      // An edit since the last step: of any vertex's position or pin (the step wrote every vertex
+      // it moved exactly; a block calm but awake when a pin is let go must not fall asleep with the
+      // cloth hanging in the air), or of a sleeping vertex's velocity.
+      if (sleeping && (x != s.x[i] || im != s.im[i] ||
+                       (s.asleep[s.block[i]] && (x != s.anchor[i] || garment.velocity(v) != Vec3::Zero()))))
+        dist[s.block[i]] = 1;
+      s.x[i] = x;
       s.v[i] = garment.velocity(v);
       s.fext[i].setZero();
-      const double im = garment.inverse_mass(v);
-      if (sleeping && s.asleep[s.block[i]] && (s.x[i] != s.anchor[i] || s.v[i] != Vec3::Zero() || im != s.im[i]))
-        dist[s.block[i]] = 1;
       s.im[i] = im;
       bool in = im > 0;
       if (local && (s.x[i] - params_.local_center).squaredNorm() > r2) in = false;
@@ -682,12 +689,16 @@ void Solver::step(Garment& garment, double dt) {
     const int k1 = parallel::piece_begin(ne, piece + 1, pieces);
     for (int k = parallel::piece_begin(ne, piece, pieces); k < k1; ++k) {
       const double rest = garment.rest_length(s.e_handle[k]);
-      if (rest != s.e_rest[k]) dist[s.block[s.e_i[k]]] = dist[s.block[s.e_j[k]]] = 1;
+      if (rest != s.e_rest[k]) {  // (all of them after a rebuild, which leaves e_rest zero)
+        if (sleeping) dist[s.block[s.e_i[k]]] = dist[s.block[s.e_j[k]]] = 1;
+        piece_rest_changed[piece] = 1;
+      }
       s.e_rest[k] = rest;
     }
   });
   for (const auto& d : piece_disturbed)
     for (int b = 0; b < s.blocks; ++b) disturbed[b] |= d[b];
+  for (unsigned char c : piece_rest_changed) s.edge_keys_stale |= c != 0;
   for (const auto& f : forces_) {
     s.fext[f.vertex.idx()] += f.force;
     disturbed[s.block[f.vertex.idx()]] = 1;
@@ -707,7 +718,7 @@ void Solver::step(Garment& garment, double dt) {
   for (const auto& [a, b] : s.tacks)
     if ((s.x[a] - s.x[b]).squaredNorm() > params_.sleep_distance * params_.sleep_distance)
       disturbed[s.block[a]] = disturbed[s.block[b]] = 1;
-  solver_detail::sleep_before_step(s, params_, mat, disturbed);
+  solver_detail::sleep_before_step(s, params_, mat, disturbed, garment.sleep_record().get());
 
   const BodyCollider* body = (params_.body_collision && collider_) ? collider_.get() : nullptr;
   if (mass_spring)
@@ -739,6 +750,7 @@ void Solver::step(Garment& garment, double dt) {
       }
     }
   });
+  if (s.fell_asleep) garment.set_sleep_record(solver_detail::sleep_record(s));
 }
 
 void Solver::prepare(const Garment& garment) {

@@ -8,11 +8,20 @@
 // the distance from an anchor and not the speed lets a block sleep whose contacts still tremble
 // (a vertex between the body and a fold moves back and forth by a fraction of a millimetre each
 // step, at up to half a metre a second within a substep) and keeps awake one that creeps.
+//
+// Where the cloth sleeps is kept with the garment (Garment::sleep_record): when the arrays are
+// rebuilt (a new solver, an undo, a topology edit), a block every vertex of which is exactly as it
+// slept (position, zero velocity, inverse mass, and the same edges with the same rest lengths)
+// starts asleep. Without it, each rebuild woke the whole garment, and a garment put to sleep while
+// it still crept (less than sleep_distance in sleep_after) crept on for seconds, every step
+// costing what the whole garment costs.
 #include "parallel.h"
 #include "solver_state.h"
 
 #include <algorithm>
 #include <cstdint>
+#include <cstring>
+#include <limits>
 
 namespace kiji::solver_detail {
 
@@ -26,8 +35,35 @@ std::array<double, 15> physics_of(const SolverParams& p, const Material& m) {
           m.thickness, m.tear_ratio};
 }
 
-// Everything awake, each vertex's anchor where it is now.
-void reset(SolverArrays& s) {
+std::uint64_t mix(std::uint64_t x) {  // splitmix64's finaliser
+  x += 0x9e3779b97f4a7c15ull;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+  return x ^ (x >> 31);
+}
+
+std::uint64_t bits_of(double d) {
+  std::uint64_t u;
+  std::memcpy(&u, &d, sizeof u);
+  return u;
+}
+
+// Each vertex's edges (the other end, the rest length), summed: the same whatever their order.
+void hash_edges(SolverArrays& s) {
+  s.edge_key.assign(s.n, 0);
+  for (std::size_t k = 0; k < s.e_i.size(); ++k) {
+    const std::uint64_t r = mix(bits_of(s.e_rest[k]));
+    s.edge_key[s.e_i[k]] += mix(static_cast<std::uint64_t>(s.e_j[k]) ^ r);
+    s.edge_key[s.e_j[k]] += mix(static_cast<std::uint64_t>(s.e_i[k]) ^ r);
+  }
+  s.edge_keys_stale = false;
+}
+
+std::uint64_t key_of(const SolverArrays& s, int i) { return s.edge_key[i] ^ mix(bits_of(s.im[i]) + 1); }
+
+// Everything awake, each vertex's anchor where it is now; but the blocks that `carried` finds
+// exactly as they slept asleep.
+void reset(SolverArrays& s, const SleepRecord* carried, const std::array<double, 15>& physics) {
   const int blocks = s.blocks;
   s.block_start.assign(blocks + 1, 0);
   for (int i : s.order)
@@ -48,6 +84,18 @@ void reset(SolverArrays& s) {
   s.calm.assign(blocks, 0.0);
   s.settle_disp.assign(blocks, 0.0);
   s.anchor = s.x;
+  if (!carried || carried->physics != physics) return;
+  if (s.edge_keys_stale) hash_edges(s);
+  const std::size_t known = std::min(carried->at.size(), carried->key.size());
+  for (int b = 0; b < blocks; ++b) {
+    bool still = s.block_start[b + 1] > s.block_start[b];
+    for (int k = s.block_start[b]; still && k < s.block_start[b + 1]; ++k) {
+      const int i = s.block_verts[k];
+      still = static_cast<std::size_t>(i) < known && carried->at[i] == s.x[i] && s.v[i] == Vec3::Zero() &&
+              carried->key[i] == key_of(s, i);
+    }
+    s.asleep[b] = still;
+  }
 }
 
 void wake(SolverArrays& s, int b) {
@@ -60,7 +108,7 @@ void wake(SolverArrays& s, int b) {
 }  // namespace
 
 void sleep_before_step(SolverArrays& s, const SolverParams& p, const Material& m,
-                       const std::vector<unsigned char>& disturbed) {
+                       const std::vector<unsigned char>& disturbed, const SleepRecord* carried) {
   s.sleeping = 0;
   if (p.sleep_after <= 0) {
     s.sleep_ready = false;
@@ -68,7 +116,7 @@ void sleep_before_step(SolverArrays& s, const SolverParams& p, const Material& m
   }
   const std::array<double, 15> physics = physics_of(p, m);
   if (!s.sleep_ready || physics != s.physics) {
-    reset(s);
+    reset(s, s.sleep_ready ? nullptr : carried, physics);
     s.physics = physics;
     s.sleep_ready = true;
   }
@@ -90,6 +138,7 @@ void sleep_before_step(SolverArrays& s, const SolverParams& p, const Material& m
 }
 
 void sleep_after_step(SolverArrays& s, const SolverParams& p, double dt) {
+  s.fell_asleep = false;
   if (!s.sleep_ready) return;
   const double d2 = p.sleep_distance * p.sleep_distance;
   const int blocks = s.blocks;
@@ -134,6 +183,7 @@ void sleep_after_step(SolverArrays& s, const SolverParams& p, double dt) {
     s.calm[b] += dt;
     if (s.calm[b] < p.sleep_after) continue;
     s.asleep[b] = 1;
+    s.fell_asleep = true;
     for (int k = s.block_start[b]; k < s.block_start[b + 1]; ++k) {
       const int i = verts[k];
       s.anchor[i] = s.x[i];  // where it is written to the mesh, exactly: an edit is any change
@@ -144,6 +194,23 @@ void sleep_after_step(SolverArrays& s, const SolverParams& p, double dt) {
   s.sleeping = 0;
   for (int b = 0; b < blocks; ++b)
     if (s.asleep[b]) s.sleeping += s.block_start[b + 1] - s.block_start[b];
+}
+
+std::shared_ptr<const SleepRecord> sleep_record(SolverArrays& s) {
+  if (s.edge_keys_stale) hash_edges(s);
+  auto r = std::make_shared<SleepRecord>();
+  r->physics = s.physics;
+  r->at.assign(s.n, Vec3::Constant(std::numeric_limits<double>::quiet_NaN()));
+  r->key.assign(s.n, 0);
+  for (int b = 0; b < s.blocks; ++b) {
+    if (!s.asleep[b]) continue;
+    for (int k = s.block_start[b]; k < s.block_start[b + 1]; ++k) {
+      const int i = s.block_verts[k];
+      r->at[i] = s.x[i];
+      r->key[i] = key_of(s, i);
+    }
+  }
+  return r;
 }
 
 }  // namespace kiji::solver_detail

@@ -16,6 +16,13 @@
 
 namespace kiji {
 
+// Where a garment's cloth sleeps, kept with the garment (see Garment::sleep_record), by vertex index.
+struct SleepRecord {
+  std::array<double, 15> physics{};  // what the resting shape depends on (as SolverArrays::physics)
+  std::vector<Vec3> at;              // where the vertex sleeps; NaN where it does not
+  std::vector<std::uint64_t> key;    // its edges, their rest lengths and its inverse mass, hashed
+};
+
 struct SolverArrays {
   // ---- identity of what the arrays mirror ----
   const Garment* garment = nullptr;
@@ -195,6 +202,9 @@ struct SolverArrays {
   std::vector<double> settle_disp;            // per block: the farthest a vertex is from its anchor
   std::array<double, 15> physics{};           // what the motion depends on, to wake all when it changes
   std::size_t sleeping = 0;                   // vertices asleep
+  std::vector<std::uint64_t> edge_key;        // per vertex: its edges and their rest lengths, hashed
+  bool edge_keys_stale = true;                // a rest length changed since they were hashed
+  bool fell_asleep = false;                   // a block fell asleep in the last step
 
   // ---- diagnostics of the last step ----
   std::size_t last_body_candidates = 0;
@@ -230,8 +240,13 @@ constexpr int kSelfSlabs = 4;
 // physics changed or the arrays were rebuilt, and the blocks that `disturbed` marks; then clears
 // `moving` of the vertices asleep. After the step: wakes the sleeping neighbours of cloth that moved,
 // and puts to sleep the blocks calm long enough (their velocities set to zero).
-void sleep_before_step(SolverArrays& s, const SolverParams& p, const Material& m, const std::vector<unsigned char>& disturbed);
+// After a rebuild, the blocks every vertex of which `carried` (the garment's sleep record, or null)
+// finds exactly as it slept start asleep.
+void sleep_before_step(SolverArrays& s, const SolverParams& p, const Material& m, const std::vector<unsigned char>& disturbed,
+                       const SleepRecord* carried);
 void sleep_after_step(SolverArrays& s, const SolverParams& p, double dt);
+// The record of where the cloth sleeps now, for the garment (see Garment::sleep_record).
+std::shared_ptr<const SleepRecord> sleep_record(SolverArrays& s);
 }  // namespace solver_detail
 
 }  // namespace kiji

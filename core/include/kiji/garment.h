@@ -11,11 +11,14 @@
 #include "kiji/texture.h"
 #include "kiji/types.h"
 
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
 
 namespace kiji {
+
+struct SleepRecord;  // the solver's, opaque here (see Garment::sleep_record)
 
 // The vertices of a mesh that are non-manifold: whose faces do not form one fan (a "bowtie").
 // O(n): one pass counts each vertex's incoming halfedges, one circulation per vertex compares.
@@ -92,6 +95,14 @@ class Garment {
   std::uint64_t topology_version() const { return topology_version_; }
   void bump_topology_version();
 
+  // Where the cloth last fell asleep in a solver (see SolverParams::sleep_after): a solver built
+  // anew for this garment (a new session, an undo, a cut or a tear elsewhere on it) starts with
+  // every block still exactly as it slept asleep, instead of waking the whole garment. Each vertex
+  // counts only while its position, zero velocity, inverse mass, edges and rest lengths are those it
+  // slept with, so an edit of any of them wakes it. Written by the solver; copies share it.
+  const std::shared_ptr<const SleepRecord>& sleep_record() const { return sleep_record_; }
+  void set_sleep_record(std::shared_ptr<const SleepRecord> record) { sleep_record_ = std::move(record); }
+
   // One past the largest vertex index in use (removed vertices included): the size of flat arrays.
   std::size_t vertex_capacity() const { return mesh_.number_of_vertices() + mesh_.number_of_removed_vertices(); }
 
@@ -135,6 +146,7 @@ class Garment {
   VertexVecMap velocity_;
   VertexDoubleMap inverse_mass_;
   FaceIntMap panel_;
+  std::shared_ptr<const SleepRecord> sleep_record_;
 };
 
 }  // namespace kiji

@@ -138,8 +138,9 @@ std::vector<ToolRate> tool_rates(const Body& body, int vertices, int frames, std
       s.add_garment(std::move(g));
       for (int i = 0; i < 10; ++i) s.step();
     } else {
-      // The garment at rest: a new session's solver has it all awake, and puts it to sleep again
-      // in sleep_after (0.5 s; not timed).
+      // The garment at rest, as it slept at the end of its settling (the garment carries where it
+      // sleeps to a new session's solver: see Garment::sleep_record). Should a part of it be awake,
+      // it is given up to 1 s to sleep (not timed).
       s.add_garment(settled);
       for (int i = 0; i < 60 && !all_asleep(s); i += 10)
         for (int k = 0; k < 10; ++k) s.step();

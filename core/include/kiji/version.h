@@ -5,7 +5,7 @@
 #include <Eigen/Core>
 
 #define KIJI_VERSION_MAJOR 0
-#define KIJI_VERSION_MINOR 1
+#define KIJI_VERSION_MINOR 2
 
 #define KIJI_STR2(x) #x
 #define KIJI_STR(x) KIJI_STR2(x)

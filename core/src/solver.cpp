@@ -607,7 +607,6 @@ void rebuild(SolverArrays& s, const Garment& g) {
   s.contact_verts.clear();
   s.self_pairs.clear();
   s.sleep_ready = false;  // everything awake, but what the garment's sleep record finds as it slept
-  s.edge_keys_stale = true;
   s.built = true;
 }
 
@@ -657,7 +656,6 @@ void Solver::step(Garment& garment, double dt) {
   const int pieces = parallel::piece_count(static_cast<int>(n), 4096);
   std::vector<std::array<unsigned char, SolverArrays::kMaxBlocks>> piece_disturbed(pieces);
   for (auto& d : piece_disturbed) d.fill(0);
-  std::vector<unsigned char> piece_rest_changed(pieces, 0);
   parallel::for_each(pieces, [&](int piece) {
     unsigned char* dist = piece_disturbed[piece].data();
     const int i1 = parallel::piece_begin(static_cast<int>(n), piece + 1, pieces);
@@ -673,8 +671,7 @@ void Solver::step(Garment& garment, double dt) {
       // An edit since the last step: of any vertex's position or pin (the step wrote every vertex
       // it moved exactly; a block calm but awake when a pin is let go must not fall asleep with the
       // cloth hanging in the air), or of a sleeping vertex's velocity.
-      if (sleeping && (x != s.x[i] || im != s.im[i] ||
-                       (s.asleep[s.block[i]] && (x != s.anchor[i] || garment.velocity(v) != Vec3::Zero()))))
+      if (sleeping && (x != s.x[i] || im != s.im[i] || (s.asleep[s.block[i]] && garment.velocity(v) != Vec3::Zero())))
         dist[s.block[i]] = 1;
       s.x[i] = x;
       s.v[i] = garment.velocity(v);
@@ -689,16 +686,13 @@ void Solver::step(Garment& garment, double dt) {
     const int k1 = parallel::piece_begin(ne, piece + 1, pieces);
     for (int k = parallel::piece_begin(ne, piece, pieces); k < k1; ++k) {
       const double rest = garment.rest_length(s.e_handle[k]);
-      if (rest != s.e_rest[k]) {  // (all of them after a rebuild, which leaves e_rest zero)
-        if (sleeping) dist[s.block[s.e_i[k]]] = dist[s.block[s.e_j[k]]] = 1;
-        piece_rest_changed[piece] = 1;
-      }
+      // (After a rebuild, which leaves e_rest zero, all differ: nothing sleeps yet to disturb.)
+      if (sleeping && rest != s.e_rest[k]) dist[s.block[s.e_i[k]]] = dist[s.block[s.e_j[k]]] = 1;
       s.e_rest[k] = rest;
     }
   });
   for (const auto& d : piece_disturbed)
     for (int b = 0; b < s.blocks; ++b) disturbed[b] |= d[b];
-  for (unsigned char c : piece_rest_changed) s.edge_keys_stale |= c != 0;
   for (const auto& f : forces_) {
     s.fext[f.vertex.idx()] += f.force;
     disturbed[s.block[f.vertex.idx()]] = 1;
@@ -735,7 +729,7 @@ void Solver::step(Garment& garment, double dt) {
     throw InputError("the simulation diverged (non-finite state) at vertex " + std::to_string(diverged) +
                      ": lower dt or spring_k, or raise substeps; the garment was left as it was");
   }
-  solver_detail::sleep_after_step(s, params_, dt);
+  const bool fell_asleep = solver_detail::sleep_after_step(s, params_, dt);
   parallel::for_range(static_cast<int>(n), 4096, [&](int b, int e) {
     for (int i = b; i < e; ++i) {
       if (!s.alive[i]) continue;
@@ -750,7 +744,7 @@ void Solver::step(Garment& garment, double dt) {
       }
     }
   });
-  if (s.fell_asleep) garment.set_sleep_record(solver_detail::sleep_record(s));
+  if (fell_asleep) garment.set_sleep_record(solver_detail::sleep_record(s));
 }
 
 void Solver::prepare(const Garment& garment) {

@@ -49,6 +49,7 @@ std::uint64_t bits_of(double d) {
 }
 
 // Each vertex's edges (the other end, the rest length), summed: the same whatever their order.
+// Hashed when a record is read or written (a rebuild, a block falling asleep), never in between.
 void hash_edges(SolverArrays& s) {
   s.edge_key.assign(s.n, 0);
   for (std::size_t k = 0; k < s.e_i.size(); ++k) {
@@ -56,7 +57,6 @@ void hash_edges(SolverArrays& s) {
     s.edge_key[s.e_i[k]] += mix(static_cast<std::uint64_t>(s.e_j[k]) ^ r);
     s.edge_key[s.e_j[k]] += mix(static_cast<std::uint64_t>(s.e_i[k]) ^ r);
   }
-  s.edge_keys_stale = false;
 }
 
 std::uint64_t key_of(const SolverArrays& s, int i) { return s.edge_key[i] ^ mix(bits_of(s.im[i]) + 1); }
@@ -85,7 +85,7 @@ void reset(SolverArrays& s, const SleepRecord* carried, const std::array<double,
   s.settle_disp.assign(blocks, 0.0);
   s.anchor = s.x;
   if (!carried || carried->physics != physics) return;
-  if (s.edge_keys_stale) hash_edges(s);
+  hash_edges(s);
   const std::size_t known = std::min(carried->at.size(), carried->key.size());
   for (int b = 0; b < blocks; ++b) {
     bool still = s.block_start[b + 1] > s.block_start[b];
@@ -137,9 +137,9 @@ void sleep_before_step(SolverArrays& s, const SolverParams& p, const Material& m
   }
 }
 
-void sleep_after_step(SolverArrays& s, const SolverParams& p, double dt) {
-  s.fell_asleep = false;
-  if (!s.sleep_ready) return;
+bool sleep_after_step(SolverArrays& s, const SolverParams& p, double dt) {
+  if (!s.sleep_ready) return false;
+  bool fell_asleep = false;
   const double d2 = p.sleep_distance * p.sleep_distance;
   const int blocks = s.blocks;
   parallel::for_range(blocks, 1, [&](int b0, int b1) {
@@ -183,7 +183,7 @@ void sleep_after_step(SolverArrays& s, const SolverParams& p, double dt) {
     s.calm[b] += dt;
     if (s.calm[b] < p.sleep_after) continue;
     s.asleep[b] = 1;
-    s.fell_asleep = true;
+    fell_asleep = true;
     for (int k = s.block_start[b]; k < s.block_start[b + 1]; ++k) {
       const int i = verts[k];
       s.anchor[i] = s.x[i];  // where it is written to the mesh, exactly: an edit is any change
@@ -194,10 +194,11 @@ void sleep_after_step(SolverArrays& s, const SolverParams& p, double dt) {
   s.sleeping = 0;
   for (int b = 0; b < blocks; ++b)
     if (s.asleep[b]) s.sleeping += s.block_start[b + 1] - s.block_start[b];
+  return fell_asleep;
 }
 
 std::shared_ptr<const SleepRecord> sleep_record(SolverArrays& s) {
-  if (s.edge_keys_stale) hash_edges(s);
+  hash_edges(s);
   auto r = std::make_shared<SleepRecord>();
   r->physics = s.physics;
   r->at.assign(s.n, Vec3::Constant(std::numeric_limits<double>::quiet_NaN()));

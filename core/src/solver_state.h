@@ -202,9 +202,7 @@ struct SolverArrays {
   std::vector<double> settle_disp;            // per block: the farthest a vertex is from its anchor
   std::array<double, 15> physics{};           // what the motion depends on, to wake all when it changes
   std::size_t sleeping = 0;                   // vertices asleep
-  std::vector<std::uint64_t> edge_key;        // per vertex: its edges and their rest lengths, hashed
-  bool edge_keys_stale = true;                // a rest length changed since they were hashed
-  bool fell_asleep = false;                   // a block fell asleep in the last step
+  std::vector<std::uint64_t> edge_key;        // per vertex: its edges and their rest lengths, hashed (scratch)
 
   // ---- diagnostics of the last step ----
   std::size_t last_body_candidates = 0;
@@ -244,7 +242,8 @@ constexpr int kSelfSlabs = 4;
 // finds exactly as it slept start asleep.
 void sleep_before_step(SolverArrays& s, const SolverParams& p, const Material& m, const std::vector<unsigned char>& disturbed,
                        const SleepRecord* carried);
-void sleep_after_step(SolverArrays& s, const SolverParams& p, double dt);
+// Returns whether a block fell asleep.
+bool sleep_after_step(SolverArrays& s, const SolverParams& p, double dt);
 // The record of where the cloth sleeps now, for the garment (see Garment::sleep_record).
 std::shared_ptr<const SleepRecord> sleep_record(SolverArrays& s);
 }  // namespace solver_detail

@@ -43,32 +43,44 @@ struct Constraints {
   int nb;
 };
 
-// Copies of the ranges [offsets[c], offsets[c + 1]) keeping what `keep` says, with the same number
-// of ranges (each keeps its index, and so its kind).
-template <typename Keep, typename Copy>
-void select_ranges(const std::vector<int>& offsets, std::vector<int>& out_offsets, Keep keep, Copy copy) {
+// Copies of the ranges [offsets[c], offsets[c + 1]) keeping those `keep` says (0 or 1), with the
+// same number of ranges (each keeps its index, and so its kind). Without a branch a constraint:
+// each is copied to the next place, which moves on only if it is kept (under a local region about
+// half the constraints are, scattered, and a branch on each was mispredicted often). The copies
+// are sized for all the constraints; the ranges say how many are kept.
+template <typename Keep, typename Put>
+void select_ranges(const std::vector<int>& offsets, std::vector<int>& out_offsets, Keep keep, Put put) {
   out_offsets.assign(1, 0);
   int kept = 0;
   for (std::size_t c = 0; c + 1 < offsets.size(); ++c) {
-    for (int k = offsets[c]; k < offsets[c + 1]; ++k)
-      if (keep(k)) copy(k), ++kept;
+    for (int k = offsets[c]; k < offsets[c + 1]; ++k) {
+      put(kept, k);
+      kept += keep(k);
+    }
     out_offsets.push_back(kept);
   }
+}
+
+template <typename T>
+void size_for(std::vector<T>& v, std::size_t n) {
+  if (v.size() < n) v.resize(n);
 }
 
 // The same for constraints between two vertices (i, j, rest): those with a moving end.
 void select_pairs(const std::vector<int>& offsets, const std::vector<int>& i, const std::vector<int>& j,
                   const std::vector<double>& rest, const unsigned char* moving, std::vector<int>& out_offsets,
                   std::vector<int>& out_i, std::vector<int>& out_j, std::vector<double>& out_rest) {
-  out_i.clear();
-  out_j.clear();
-  out_rest.clear();
+  size_for(out_i, i.size());
+  size_for(out_j, i.size());
+  size_for(out_rest, i.size());
+  int *oi = out_i.data(), *oj = out_j.data();
+  double* orest = out_rest.data();
   select_ranges(
-      offsets, out_offsets, [&](int k) { return moving[i[k]] || moving[j[k]]; },
-      [&](int k) {
-        out_i.push_back(i[k]);
-        out_j.push_back(j[k]);
-        out_rest.push_back(rest[k]);
+      offsets, out_offsets, [&](int k) { return int(moving[i[k]] | moving[j[k]]); },
+      [&](int q, int k) {
+        oi[q] = i[k];
+        oj[q] = j[k];
+        orest[q] = rest[k];
       });
 }
 
@@ -87,17 +99,18 @@ Constraints select_constraints(SolverArrays& s) {
             s.bends.data(), &s.b_ranges, static_cast<int>(s.bends.size())};
   select_pairs(s.e_ranges, s.e_i, s.e_j, s.e_rest, M, s.ae_ranges, s.ae_i, s.ae_j, s.ae_rest);
   select_pairs(s.l_ranges, s.l_i, s.l_j, s.l_rest, M, s.al_ranges, s.al_i, s.al_j, s.al_rest);
-  s.a_bends.clear();
+  size_for(s.a_bends, s.bends.size());
+  SolverArrays::Bend* ab = s.a_bends.data();
   select_ranges(
       s.b_ranges, s.ab_ranges,
       [&](int k) {
         const int* v = s.bends[k].v;
-        return M[v[0]] || M[v[1]] || M[v[2]] || M[v[3]];
+        return int(M[v[0]] | M[v[1]] | M[v[2]] | M[v[3]]);
       },
-      [&](int k) { s.a_bends.push_back(s.bends[k]); });
-  return {s.ae_i.data(), s.ae_j.data(), s.ae_rest.data(), &s.ae_ranges, static_cast<int>(s.ae_i.size()),
+      [&](int q, int k) { ab[q] = s.bends[k]; });
+  return {s.ae_i.data(), s.ae_j.data(), s.ae_rest.data(), &s.ae_ranges, s.ae_ranges.back(),
           s.al_i.data(), s.al_j.data(), s.al_rest.data(), &s.al_ranges,
-          s.a_bends.data(), &s.ab_ranges, static_cast<int>(s.a_bends.size())};
+          s.a_bends.data(), &s.ab_ranges, s.ab_ranges.back()};
 }
 
 constexpr int kVertexGrain = 2048, kConstraintGrain = 256, kContactGrain = 128;

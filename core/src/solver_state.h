@@ -84,7 +84,8 @@ struct SolverArrays {
   // with a moving vertex are copied here in the same order and the same ranges (as many ranges as
   // the full arrays, of the same kinds, empty ones included), so that a region of 1,000 moving
   // vertices in a 20,000-vertex garment costs what 1,000 vertices cost; when every live vertex
-  // moves, the full arrays are used as they are.
+  // moves, the full arrays are used as they are. The copies are sized for all the constraints
+  // (each is written, kept or not, without a branch); their ranges' last offset is how many are kept.
   std::vector<int> act;               // the moving vertices, in index order
   std::vector<int> ae_i, ae_j, ae_ranges;
   std::vector<double> ae_rest;

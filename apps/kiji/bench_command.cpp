@@ -194,9 +194,25 @@ struct ClothResult {
   double setup_ms = 0;  // building the solver's own structures, once, before the first step
 };
 
+// A solver's own clock: the time of its steps alone, so that cloths can be stepped in turns.
+class StepClock {
+ public:
+  template <typename F>
+  void time(int count, F&& step) {
+    const auto t0 = Clock::now();
+    for (int i = 0; i < count; ++i) step();
+    seconds_ += seconds_since(t0);
+    steps_ += count;
+  }
+  double ms_per_step() const { return steps_ ? 1000 * seconds_ / steps_ : 0.0; }
+
+ private:
+  double seconds_ = 0;
+  int steps_ = 0;
+};
+
 // A horizontal cloth 1 m square, pinned at two corners, under gravity at 60 steps a second, in
-// Kiji's solver. Each cloth is stepped on its own clock (`step` times itself), so that cloths can be
-// stepped in turns: see compare().
+// Kiji's solver, on its own clock (see compare()).
 class KijiCloth {
  public:
   KijiCloth(int n, SolverModel model, int substeps = 10, bool strain_limit = true)
@@ -217,14 +233,11 @@ class KijiCloth {
     res_.setup_ms = 1000 * seconds_since(t_setup);
   }
   void step(int count) {
-    const auto t0 = Clock::now();
-    for (int i = 0; i < count; ++i) solver_.step(garment_, 1.0 / 60);
-    seconds_ += seconds_since(t0);
-    steps_ += count;
+    clock_.time(count, [&] { solver_.step(garment_, 1.0 / 60); });
   }
   ClothResult result() const {
     ClothResult res = res_;
-    res.ms_per_step = steps_ ? 1000 * seconds_ / steps_ : 0.0;
+    res.ms_per_step = clock_.ms_per_step();
     double sum = 0;
     for (Edge e : garment_.mesh().edges()) {
       res.max_strain = std::max(res.max_strain, std::abs(garment_.strain(e)));
@@ -256,8 +269,7 @@ class KijiCloth {
   Solver solver_;
   Vertex centre_;
   ClothResult res_;
-  double seconds_ = 0;
-  int steps_ = 0;
+  StepClock clock_;
 };
 
 // The same cloth in Bullet's btSoftBody (Debian's libbullet, double precision).
@@ -283,14 +295,11 @@ class BulletCloth {
   BulletCloth(const BulletCloth&) = delete;
   BulletCloth& operator=(const BulletCloth&) = delete;
   void step(int count) {
-    const auto t0 = Clock::now();
-    for (int i = 0; i < count; ++i) world_.stepSimulation(1.0 / 60, 0);
-    seconds_ += seconds_since(t0);
-    steps_ += count;
+    clock_.time(count, [&] { world_.stepSimulation(1.0 / 60, 0); });
   }
   ClothResult result() const {
     ClothResult res = res_;
-    res.ms_per_step = steps_ ? 1000 * seconds_ / steps_ : 0.0;
+    res.ms_per_step = clock_.ms_per_step();
     double sum = 0;
     int count = 0;
     for (int i = 0; i < cloth_->m_links.size(); ++i) {
@@ -317,8 +326,7 @@ class BulletCloth {
   btSoftRigidDynamicsWorld world_;
   std::unique_ptr<btSoftBody> cloth_;
   ClothResult res_;
-  double seconds_ = 0;
-  int steps_ = 0;
+  StepClock clock_;
 };
 
 ClothResult run_kiji(int n, SolverModel model, int steps, int substeps = 10, bool strain_limit = true) {

@@ -45,6 +45,13 @@ double largest_gap(const Garment& a, const Garment& b) {
   return gap;
 }
 
+// The vertices asleep after one step of a new solver (a new session, an undo) on the garment.
+std::size_t asleep_after_a_step(const Body& floor, Garment& g) {
+  Solver fresh;
+  fresh.set_body(&floor);
+  fresh.step(g, 1.0 / 60);
+  return fresh.measure(g).sleeping;
+}
 }  // namespace
 
 TEST(Sleep, ClothAtRestFallsAsleepAndStaysExactlyWhereItIs) {
@@ -189,11 +196,9 @@ TEST(Sleep, ANewSolverFindsTheClothAsleepWhereItSleptAndWakesOnlyWhatChanged) {
     ASSERT_NO_FATAL_FAILURE(sleep_on(hold, pinned));
     Garment copy = pinned;
     copy.set_pinned(Vertex(0), false);
-    Solver fresh;
-    fresh.set_body(&floor);
-    fresh.step(copy, 1.0 / 60);
-    EXPECT_LT(fresh.measure(copy).sleeping, all) << "the block of the pin let go is awake";
-    EXPECT_GT(fresh.measure(copy).sleeping, 0u);
+    const std::size_t sleeping = asleep_after_a_step(floor, copy);
+    EXPECT_LT(sleeping, all) << "the block of the pin let go is awake";
+    EXPECT_GT(sleeping, 0u);
   }
   {
     // Other physics (here the friction) in the copy: nothing of the record holds, all wakes.
@@ -201,10 +206,7 @@ TEST(Sleep, ANewSolverFindsTheClothAsleepWhereItSleptAndWakesOnlyWhatChanged) {
     Material m = copy.material();
     m.friction = 0.9;
     copy.set_material(m);
-    Solver fresh;
-    fresh.set_body(&floor);
-    fresh.step(copy, 1.0 / 60);
-    EXPECT_EQ(fresh.measure(copy).sleeping, 0u);
+    EXPECT_EQ(asleep_after_a_step(floor, copy), 0u);
   }
 }
 

@@ -167,6 +167,10 @@ struct SolverArrays {
     alignas(16) float hi[3][kTriCluster];
   };
   std::vector<TriClusterBoxes> tri_cluster_live;
+  // Culling in moving frames (see gather_self_pairs): each cluster's frame, a motion its items are
+  // swept less, and the same as a float box that holds it.
+  std::vector<Vec3> vcl_frame, tcl_frame;
+  std::vector<FloatBox> vcl_frame_box, tcl_frame_box;
   struct SelfPair {
     int v, t;
     double side;  // +1 / -1: the side of the triangle the vertex was on when the pair was gathered

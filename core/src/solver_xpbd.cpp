@@ -230,33 +230,61 @@ void limit_strain(SolverArrays& s, const Constraints& cs, double limit) {
 // How many substeps one gather of self-collision pairs serves. A gather finds the pairs that can
 // come within the thickness while each vertex moves along its velocity for the window: about as
 // many, around a vertex, as there are triangles within its reach, the thickness plus its motion
-// relative to the cloth over the window; each pair found is looked at again in every substep of
-// the window. A garment dragged or sliding off the body moves centimetres a step relative to
-// itself, and a gather for the whole step found the pairs within those centimetres: 1.7 million
-// at 20,000 vertices, most of the step's time. Shorter windows find fewer pairs but gather more
-// often, and a gather has a cost of its own (the trees' traversal, ~0.75 us a vertex on a 2-core
-// machine). The window taken is the cheapest under that cost model, per step:
+// relative to the cloth near it over the window (culling is in each cluster's moving frame, see
+// gather_self_pairs); each pair found is looked at again in every substep of the window. Cloth
+// dragged fast across itself moves centimetres a step relative to what it slides over, and a
+// gather for the whole step finds the pairs within those centimetres. Shorter windows find fewer
+// pairs but gather more often, and a gather has a cost of its own (the trees' search, most of it
+// the boxes of neighbouring clusters that meet at rest). The window taken is the cheapest under
+// that cost model, per step:
 //   substeps / K * (gathers' own cost + pairs(K)) + substeps * 0.13 * pairs(K),
-//   pairs(K) ~ sum over the moving vertices of (th + K / substeps * |motion - mean motion|)^2,
+//   pairs(K) ~ sum over the moving vertices of (th + K / substeps * |motion - cluster's motion|)^2,
 // with the gathers' own cost worth 1.2 spacing^2 of reach^2 a vertex and a pair looked at in a
 // substep 0.13 of a pair gathered (measured on the 20,000-vertex stroke over the shoulders: a
 // gather 15 ms at rest and 225 ns a pair, resolving 30 ns a pair a substep). Cloth at rest or
-// carried together gets the whole step; cloth in a hurry a few substeps.
+// moving together gets the whole step; cloth in a hurry a few substeps. (Priced against the
+// motion less the whole cloth's mean, as the culling once was, a finer mesh of the same falling
+// cloth moved more spacings and got shorter windows: 1.8 gathers a step at 100,000 vertices.)
 static int self_window(const SolverArrays& s, const SolverParams& p, double th) {
   const int substeps = p.substeps;
   if (!p.self_collision || substeps == 1) return substeps;
-  Vec3 c = Vec3::Zero();
-  const std::size_t nm = s.act.size();  // the moving vertices, in index order
-  double spacing = 0;
-  for (int i : s.act) c += s.pred[i], spacing += s.spacing[i];
+  const std::size_t nm = s.act.size();  // the moving vertices
   if (nm == 0) return substeps;
+  Vec3 c = Vec3::Zero();
+  for (int i : s.act) c += s.pred[i];
   c /= double(nm);
-  spacing /= double(nm);
-  double su = 0, su2 = 0;  // sums of |u| and |u|^2 over the moving vertices, u = motion - mean
+  // Sums over the moving vertices of |u| and |u|^2, u their motion less the whole cloth's mean
+  // motion, and of their spacing.
+  double su = 0, su2 = 0, spacing = 0;
   for (int i : s.act) {
     const double u = (s.pred[i] - c).norm();
-    su += u, su2 += u * u;
+    su += u, su2 += u * u, spacing += s.spacing[i];
   }
+  if (10 * (s.order.size() - nm) < nm) {  // culled in each cluster's frame (as gather_self_pairs decides)
+    // The same with u less the vertex's cluster's motion...
+    double sl = 0, sl2 = 0;
+    const int clusters = static_cast<int>(s.vcl_begin.size()) - 1;
+    for (int k = 0; k < clusters; ++k) {
+      const int b = s.vcl_begin[k], e = s.vcl_begin[k + 1];
+      Vec3 mean = Vec3::Zero();
+      for (int q = b; q < e; ++q) mean += s.pred[s.vcl_items[q]];  // a held vertex's: zero
+      mean /= double(e - b);
+      for (int q = b; q < e; ++q) {
+        const int i = s.vcl_items[q];
+        if (!s.moving[i]) continue;
+        const double u = (s.pred[i] - mean).norm();
+        sl += u, sl2 += u * u;
+      }
+    }
+    // ...but where layers lie on each other (the last gather found pairs), one may slide across
+    // the other, and the motion that counts there is relative to the other layer, which the
+    // cloth's mean stands for: priced between the two by the pairs a moving vertex had (at rest on
+    // itself, a layer's vertex has one or two).
+    const double layered = std::min(1.0, double(s.last_self_pairs) / double(nm));
+    su = sl + layered * (su - sl);
+    su2 = sl2 + layered * (su2 - sl2);
+  }
+  spacing /= double(nm);
   const double r = std::min(th, 0.6 * spacing);
   const double own = 1.2 * spacing * spacing * double(nm);
   int best = substeps;

@@ -468,12 +468,11 @@ void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale)
   const std::size_t nm = s.act.size();  // the moving vertices, in index order
   for (int i : s.act) c += s.win[i];
   if (nm == 0) return;
-  const std::size_t held = s.order.size() - nm;  // order: the live vertices (rebuilt with the topology)
   c /= double(nm);
   const unsigned char* M = s.moving.data();
   // A few held vertices (pins): one search of everything costs less than two; the leaves get their
   // boxes as they are computed.
-  const bool one_search = 10 * held < nm;
+  const bool one_search = self_search_whole(s);
   const int nt = static_cast<int>(s.tcl_items.size()), nv = static_cast<int>(s.vcl_items.size());
   constexpr int kV = SolverArrays::kVertCluster, kT = SolverArrays::kTriCluster;
   // The clusters' frames: when everything moves, each cluster's own motion (the mean of its

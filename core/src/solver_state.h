@@ -232,6 +232,13 @@ void resolve_escaped(SolverArrays& s, const BodyCollider& collider, double thick
 // Vertex-triangle pairs that can come within the thickness while the vertices move by `win` (from
 // x), with the last step's surprise_self times surprise_scale as slack.
 void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale);
+// Whether gather_self_pairs makes one search of everything, each cluster culled in its own frame
+// (everything moves but a few pins), rather than two in the frame of the moving part (a local
+// region).
+inline bool self_search_whole(const SolverArrays& s) {
+  const std::size_t moving = s.act.size(), held = s.order.size() - moving;
+  return 10 * held < moving;
+}
 void resolve_self(SolverArrays& s, double thickness);
 // Orders the gathered pairs in slabs for resolve_self (after each gather).
 void partition_self_pairs(SolverArrays& s);

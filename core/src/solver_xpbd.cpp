@@ -260,7 +260,7 @@ static int self_window(const SolverArrays& s, const SolverParams& p, double th) 
     const double u = (s.pred[i] - c).norm();
     su += u, su2 += u * u, spacing += s.spacing[i];
   }
-  if (10 * (s.order.size() - nm) < nm) {  // culled in each cluster's frame (as gather_self_pairs decides)
+  if (self_search_whole(s)) {  // culled in each cluster's own frame
     // The same with u less the vertex's cluster's motion...
     double sl = 0, sl2 = 0;
     const int clusters = static_cast<int>(s.vcl_begin.size()) - 1;

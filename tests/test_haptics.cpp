@@ -50,6 +50,20 @@ TEST(HapticSnapshot, HoldsTheClothNearThePointer) {
   EXPECT_EQ(snap.position_of(Vertex(0)), nullptr);
 }
 
+TEST(HapticLoop, LatestSampleIsTheDeviceFromTheMomentItStarts) {
+  // The simulation thread reads the hand's position right after start(). A default event there
+  // (a pointer at the origin) would drag a held garment metres in one step.
+  const Vec3 hand(0.4, 1.6, -0.3);
+  ScriptedDevice device([&](double) { return at(hand); });
+  for (int run = 0; run < 20; ++run) {
+    HapticLoop loop(device);
+    loop.start();
+    const ToolEvent first = loop.latest_sample();
+    loop.stop();
+    ASSERT_TRUE(first.position.isApprox(hand)) << "run " << run << ": " << first.position.transpose();
+  }
+}
+
 TEST(HapticLoop, FeedsThePinchSpringBackToTheDevice) {
   Session s(plugins());
   s.add_garment(make_rectangle(1.0, 1.0, 21, 21));

@@ -121,7 +121,10 @@ void HapticLoop::start() {
     ticks_ = 0;
     elapsed_s_ = 0;
   }
+  std::unique_lock<std::mutex> lock(sample_mutex_);
+  sampled_ = false;
   thread_ = std::thread([this] { run(); });
+  sampled_cv_.wait(lock, [this] { return sampled_; });
 }
 
 void HapticLoop::stop() {
@@ -145,6 +148,10 @@ void HapticLoop::run() {
     {
       std::lock_guard<std::mutex> lock(sample_mutex_);
       sample_ = e;
+      if (!sampled_) {
+        sampled_ = true;
+        sampled_cv_.notify_all();
+      }
     }
     Vec3 force = Vec3::Zero();
     const auto t0 = clock::now();

@@ -11,6 +11,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -94,6 +95,8 @@ class HapticLoop {
   // A new snapshot for the loop to read (called by the simulation thread after each step).
   void publish(std::shared_ptr<const HapticSnapshot> snapshot);
   // The latest device sample (for the simulation thread to turn into ToolEvents at its own rate).
+  // Valid from the moment start() returns: start() waits for the loop's first sample, so the
+  // simulation never reads a default event (a pointer at the origin) as where the hand is.
   ToolEvent latest_sample() const;
 
   void start();
@@ -111,6 +114,8 @@ class HapticLoop {
   std::atomic<bool> running_{false};
   std::thread thread_;
   mutable std::mutex sample_mutex_;
+  std::condition_variable sampled_cv_;
+  bool sampled_ = false;  // the loop has stored its first sample (guarded by sample_mutex_)
   ToolEvent sample_;
   mutable std::mutex stats_mutex_;
   std::vector<double> periods_us_, force_us_;

@@ -290,7 +290,12 @@ void Session::run(Tool& tool, const ParamSet& params, const Stroke& stroke) {
 }
 
 bool Session::undo() {
-  if (active_) apply(*active_->tool, ToolEvent{Phase::Cancel, time_});
+  if (active_) {
+    ToolEvent cancel;
+    cancel.phase = Phase::Cancel;
+    cancel.time = time_;
+    apply(*active_->tool, cancel);
+  }
   if (!journal_.can_undo()) return false;
   restore(journal_.undo().before);
   return true;

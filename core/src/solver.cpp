@@ -736,6 +736,7 @@ void Solver::step(Garment& garment, double dt) {
   solver_detail::sleep_before_step(s, params_, mat, disturbed, garment.sleep_record().get());
 
   const BodyCollider* body = (params_.body_collision && collider_) ? collider_.get() : nullptr;
+  s.report = StepReport{};
   if (mass_spring)
     solver_detail::step_mass_spring(s, params_, mat, body, dt);
   else
@@ -767,6 +768,8 @@ void Solver::step(Garment& garment, double dt) {
   });
   if (fell_asleep) garment.set_sleep_record(solver_detail::sleep_record(s));
 }
+
+StepReport Solver::last_step() const { return state_->report; }
 
 void Solver::prepare(const Garment& garment) {
   garment.material().validate();

@@ -235,10 +235,13 @@ struct PairCollector : btDbvt::ICollide {
   double th;
   std::vector<SolverArrays::SelfPair>* out;
   const SolverArrays::FloatBox* vert_live;  // each vertex's box in this search, in cluster order
+  std::size_t budget;                       // the most pairs `out` takes (see StepReport::self_overloaded)
+  bool full = false;
   // A cluster of vertices against a cluster of triangles whose boxes meet: the items' boxes, each
   // vertex's (grown by what the two clusters' frames sweep apart, see gather_self_pairs) against
   // the cluster's triangles' (an item taking no part has an empty box, which meets nothing).
   void Process(const btDbvtNode* a, const btDbvtNode* b) override {
+    if (full) return;
     const int cv = static_cast<int>(reinterpret_cast<std::intptr_t>(a->data));
     const int ct = static_cast<int>(reinterpret_cast<std::intptr_t>(b->data));
     const int t0 = s->tcl_begin[ct], t1 = s->tcl_begin[ct + 1];
@@ -314,6 +317,10 @@ struct PairCollector : btDbvt::ICollide {
     const Vec3 d = s->x[v] - cp.point;
     if (d.squaredNorm() > reach * reach) return;  // cannot come within the thickness in the window
     const double side = d.dot(n) >= 0 ? 1.0 : -1.0;
+    if (out->size() >= budget) {
+      full = true;
+      return;
+    }
     out->push_back({v, t, side, d.norm()});
   }
 };
@@ -354,6 +361,11 @@ struct PairCollector : btDbvt::ICollide {
 // for any number of threads.
 namespace {
 using FloatBox = SolverArrays::FloatBox;
+// A search's budget of pairs (StepReport::self_overloaded): this many a vertex of each subtree,
+// and a little more for small subtrees. Cloth at work has at most about 160 a vertex over a
+// subtree (a whole 20,000-vertex garment dragged fast across itself), 126 in the tests' coarse
+// cloth thrown at the body.
+constexpr std::size_t kPairsPerVertex = 256, kPairsSlack = 4096;
 constexpr float kInf = std::numeric_limits<float>::infinity();
 const FloatBox kNoBox{{kInf, kInf, kInf}, {-kInf, -kInf, -kInf}};
 const btDbvtVolume kNothing =
@@ -444,19 +456,40 @@ void collide_trees(SolverArrays& s, double thickness, const Vec3& mean, const st
     roots.swap(next);
   }
   s.self_gather.resize(roots.size());
+  s.self_gather_full.assign(roots.size(), 0);
   parallel::for_range(static_cast<int>(roots.size()), 1, [&](int r0, int r1) {
+    std::vector<const btDbvtNode*> stack;
     for (int r = r0; r < r1; ++r) {
       s.self_gather[r].clear();
+      // The subtree's budget: kPairsPerVertex a vertex under it (a knot's only bound; a fixed cut
+      // and its own count, so the same pairs are kept for any thread count).
+      std::size_t vertices = 0;
+      stack.assign(1, roots[r]);
+      while (!stack.empty()) {
+        const btDbvtNode* node = stack.back();
+        stack.pop_back();
+        if (node->isleaf()) {
+          const int c = static_cast<int>(reinterpret_cast<std::intptr_t>(node->data));
+          vertices += s.vcl_begin[c + 1] - s.vcl_begin[c];
+        } else {
+          stack.push_back(node->childs[0]);
+          stack.push_back(node->childs[1]);
+        }
+      }
       PairCollector pc;
       pc.s = &s;
       pc.th = thickness;
       pc.out = &s.self_gather[r];
       pc.vert_live = vert_live.data();
+      pc.budget = kPairsPerVertex * vertices + kPairsSlack;
       s.vert_tree.collideTT(roots[r], s.tri_tree.m_root, pc);
+      s.self_gather_full[r] = pc.full;
     }
   });
-  for (std::size_t r = 0; r < roots.size(); ++r)
+  for (std::size_t r = 0; r < roots.size(); ++r) {
     s.self_pairs.insert(s.self_pairs.end(), s.self_gather[r].begin(), s.self_gather[r].end());
+    if (s.self_gather_full[r]) s.report.self_overloaded = true;
+  }
 }
 }  // namespace
 
@@ -533,6 +566,8 @@ void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale)
     });
     collide_trees(s, thickness, c, s.vert_box, s.tri_box);
     s.last_self_pairs = s.self_pairs.size();
+    ++s.report.self_gathers;
+    s.report.self_pairs += s.self_pairs.size();
     partition_self_pairs(s);
     return;
   }
@@ -583,6 +618,8 @@ void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale)
   });
   collide_trees(s, thickness, c, s.vert_live, s.tri_live);
   s.last_self_pairs = s.self_pairs.size();
+  ++s.report.self_gathers;
+  s.report.self_pairs += s.self_pairs.size();
   partition_self_pairs(s);
 }
 

@@ -186,6 +186,7 @@ struct SolverArrays {
   std::vector<unsigned char> pair_slab;
   std::vector<SelfPair> pair_scratch;
   std::vector<std::vector<SelfPair>> self_gather;  // one list per vertex subtree, joined in order
+  std::vector<unsigned char> self_gather_full;     // per subtree: its list reached its budget
   // What each triangle and vertex sweeps in the window (when the gathering makes two searches,
   // only the moving vertices' and the triangles' with a moving corner are kept), and the box it
   // takes part in this search with (its own, or none), both in cluster order (indexed as *_items).
@@ -212,6 +213,7 @@ struct SolverArrays {
   // ---- diagnostics of the last step ----
   std::size_t last_body_candidates = 0;
   std::size_t last_self_pairs = 0;
+  StepReport report;  // what the last step did (Solver::last_step)
 };
 
 // Implemented in the model files (Solver::State derives from SolverArrays).

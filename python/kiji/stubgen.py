@@ -163,7 +163,7 @@ def generate() -> str:
     from kiji import _kiji, _session
 
     out = [HEADER]
-    classes = ["Material", "SolverParams", "ClothMeasures", "Body", "Camera", "Garment", "ParamSpec", "ToolInfo",
+    classes = ["Material", "SolverParams", "ClothMeasures", "StepReport", "Body", "Camera", "Garment", "ParamSpec", "ToolInfo",
                "ToolRegistry", "ToolEvent", "SurfaceHit", "JournalStroke"]
     for name in classes:
         out += _class_stub(name, getattr(_kiji, name))

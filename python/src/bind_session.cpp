@@ -329,6 +329,8 @@ void bind_session(py::module_& m) {
      "Lays every garment over the body (place=True) and lets it fall and settle for `seconds`.");
   s.def("measure", [](Session& self, std::size_t i) { return self.solver(i).measure(self.garment(i)); },
         py::arg("garment") = 0, "Penetration, strain, energy and contacts of a garment.");
+  s.def("last_step", [](Session& self, std::size_t i) { return self.solver(i).last_step(); },
+        py::arg("garment") = 0, "What the last step did for a garment: self-collision searches and pairs.");
   s.def("pick", [](const Session& self, py::handle position, py::handle ray) {
     return self.pick(to_vec3(position, "position"), ray.is_none() ? Vec3::Zero() : to_vec3(ray, "ray"));
   }, py::arg("position"), py::arg("ray") = py::none(), "The cloth under a pointer (nearest within pick_radius, or along a ray).");

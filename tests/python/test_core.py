@@ -161,6 +161,24 @@ def test_drape_on_a_body_rests_on_it():
     assert s.time == pytest.approx(1.0)
 
 
+def test_last_step_reports_the_self_collision_work():
+    s = kiji.Session()
+    g = s.add_garment(kiji.rectangle(0.5, 0.5, nx=41, ny=41))
+    assert s.last_step().self_gathers == 0, "nothing stepped yet"
+    s.step()
+    r = s.last_step()
+    assert r.self_gathers >= 1
+    assert not r.self_overloaded, "a flat cloth falling is far from the budget"
+    # Crushed into a 1 cm cube and thrown about: a knot, whose search keeps only its budget.
+    rng = np.random.default_rng(3)
+    g.positions = rng.uniform(0.0, 0.01, size=(41 * 41, 3))
+    g.velocities = rng.uniform(-3.0, 3.0, size=(41 * 41, 3))
+    s.step()
+    r = s.last_step()
+    assert r.self_overloaded, r
+    assert np.isfinite(g.positions).all()
+
+
 def test_cloth_at_rest_sleeps_and_a_script_edit_wakes_it():
     # A cloth lying on a floor: at rest, it falls asleep (no longer computed) and stays exactly put;
     # a vertex lifted by the script falls back instead of floating where it was left.

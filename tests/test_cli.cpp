@@ -112,7 +112,7 @@ TEST(Cli, BenchPrintsEveryFigureAsJson) {
         "\"cut\":", "\"sew\":", "\"paint\":", "\"frames_per_second\":", "\"versus_bullet\":", "\"xpbd\":",
         "\"mass_spring\":", "\"bullet\":", "\"speedup_xpbd_over_bullet\":", "\"matched_substeps\":", "\"xpbd_matched\":",
         "\"speedup_at_equal_strain\":", "\"matched_strain_limit\":", "\"setup_ms\":", "\"max_strain\":", "\"sag_m\":",
-        "\"haptics\":", "\"loop_hz\":", "\"jitter_us\":", "\"force_median_us\":", "\"force_p99_us\":",
+        "\"haptics\":", "\"loop_hz\":", "\"jitter_us\":", "\"force_median_us\":", "\"force_p99_us\":", "\"realtime\":",
         "\"scaling\":", "\"ms_per_step\":", "\"bytes_per_vertex\":"})
     EXPECT_NE(r.out.find(field), std::string::npos) << field << " missing";
   EXPECT_EQ(r.out.find("null"), std::string::npos) << "every figure measured: " << r.out;

@@ -5,6 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <pthread.h>
+#include <sched.h>
+
 #include <thread>
 
 using namespace kiji;
@@ -62,6 +65,25 @@ TEST(HapticLoop, LatestSampleIsTheDeviceFromTheMomentItStarts) {
     loop.stop();
     ASSERT_TRUE(first.position.isApprox(hand)) << "run " << run << ": " << first.position.transpose();
   }
+}
+
+TEST(HapticLoop, RunsAtRealTimePriorityWhereTheSystemAllowsIt) {
+  // Whether this process may give a thread real-time priority, asked of a thread of its own.
+  bool allowed = false;
+  std::thread probe([&] {
+    sched_param priority{};
+    priority.sched_priority = sched_get_priority_min(SCHED_FIFO);
+    allowed = pthread_setschedparam(pthread_self(), SCHED_FIFO, &priority) == 0;
+  });
+  probe.join();
+  ScriptedDevice device([&](double) { return at(Vec3(0, 1, 0)); });
+  HapticLoop loop(device);
+  loop.start();
+  wait_for(device, 20);
+  loop.stop();
+  const HapticStats stats = loop.stats();
+  EXPECT_EQ(stats.realtime, allowed) << "the loop says what priority it got";
+  EXPECT_GE(stats.ticks, 20u);
 }
 
 TEST(HapticLoop, FeedsThePinchSpringBackToTheDevice) {

@@ -4,6 +4,10 @@
 #include "kiji/session.h"
 
 #include <algorithm>
+#if defined(__linux__)
+#include <pthread.h>
+#include <sched.h>
+#endif
 #include <cmath>
 #include <numeric>
 #include <unordered_map>
@@ -134,6 +138,15 @@ void HapticLoop::stop() {
 }
 
 void HapticLoop::run() {
+  // Above the simulation's threads where the system allows it (see HapticStats::realtime): the
+  // loop sleeps most of each millisecond, so it takes little from them.
+  bool realtime = false;
+#if defined(__linux__)
+  sched_param priority{};
+  priority.sched_priority = sched_get_priority_min(SCHED_FIFO);
+  realtime = pthread_setschedparam(pthread_self(), SCHED_FIFO, &priority) == 0;
+#endif
+  realtime_.store(realtime);
   using clock = std::chrono::steady_clock;
   const auto period = std::chrono::duration_cast<clock::duration>(std::chrono::duration<double>(1.0 / rate_hz_));
   const auto begin = clock::now();
@@ -193,6 +206,7 @@ void HapticLoop::run() {
 HapticStats HapticLoop::stats() const {
   std::lock_guard<std::mutex> lock(stats_mutex_);
   HapticStats s;
+  s.realtime = realtime_.load();
   s.ticks = ticks_;
   s.rate_hz = elapsed_s_ > 0 ? ticks_ / elapsed_s_ : 0;
   if (periods_us_.size() > 1) {

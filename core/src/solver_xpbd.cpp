@@ -23,6 +23,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <type_traits>
 
 namespace kiji::solver_detail {
 
@@ -149,6 +150,20 @@ void run_ranges(const std::vector<int>& offsets, const std::vector<unsigned char
     else
       parallel::for_range(e - b, kConstraintGrain, [&](int lo, int hi) { f(b + lo, b + hi); });
     ++k;
+  }
+}
+
+// run_ranges over f(kept, begin, end), kept a std::bool_constant: whether f keeps the XPBD
+// multipliers (more than one iteration) or leaves them out (one: each starts its substep at zero).
+template <typename F>
+void with_multipliers(bool multipliers, const std::vector<int>& offsets, const std::vector<unsigned char>& kinds,
+                      F& f) {
+  if (multipliers) {
+    auto kept = [&](int b, int e) { f(std::true_type{}, b, e); };
+    run_ranges(offsets, kinds, kept);
+  } else {
+    auto left = [&](int b, int e) { f(std::false_type{}, b, e); };
+    run_ranges(offsets, kinds, left);
   }
 }
 
@@ -336,8 +351,15 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
   const double alpha_b = bending ? 1.0 / (m.bending_stiffness * h * h) : 0.0;
   const int ne = cs.ne;
   const int nb = cs.nb;
-  s.lam_e.resize(ne);
-  s.lam_b.resize(nb);
+  // The multipliers are reset every substep, so with one iteration (the default) each is zero when
+  // its constraint is projected and is never read again: they are kept only for more iterations.
+  // Without them a substep reads and writes 24 bytes an edge and 48 a bending edge less (at 20,000
+  // vertices 5.7 MB a substep, more than the positions and constraints it otherwise touches).
+  const bool multipliers = p.iterations > 1;
+  if (multipliers) {
+    s.lam_e.resize(ne);
+    s.lam_b.resize(nb);
+  }
 
   Vec3* X = s.x.data();
   const double* W = s.w.data();
@@ -363,8 +385,10 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
         X[i] += h * s.v[i];
       }
     });
-    std::fill(s.lam_e.begin(), s.lam_e.end(), 0.0);
-    if (bending) std::fill(s.lam_b.begin(), s.lam_b.end(), Vec3::Zero());
+    if (multipliers) {
+      std::fill(s.lam_e.begin(), s.lam_e.end(), 0.0);
+      if (bending) std::fill(s.lam_b.begin(), s.lam_b.end(), Vec3::Zero());
+    }
     // Hands: zero-length springs to a point, compliance 1 / k. The plain ones first in the sweep,
     // so that the cloth's constraints after them pull back; the firm ones at the end (below). No
     // multiplier is kept for them: with more than one iteration a hand is projected again each
@@ -395,7 +419,7 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
         }
       };
       run_ranges(*cs.l_ranges, s.l_kinds, limits);  // coarse to fine
-      auto stretch = [&](int b, int e) {
+      auto stretch = [&](auto kept, int b, int e) {
         for (int k = b; k < e; ++k) {
           const int i = cs.e_i[k], j = cs.e_j[k];
           const double wsum = W[i] + W[j];
@@ -404,16 +428,21 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
           const double len = d.norm();
           if (!(len > 1e-12)) continue;
           const double C = len - cs.e_rest[k];
-          const double dl = (-C - alpha_s * s.lam_e[k]) / (wsum + alpha_s);
-          s.lam_e[k] += dl;
+          double dl;
+          if constexpr (decltype(kept)::value) {
+            dl = (-C - alpha_s * s.lam_e[k]) / (wsum + alpha_s);
+            s.lam_e[k] += dl;
+          } else {
+            dl = -C / (wsum + alpha_s);
+          }
           const Vec3 corr = d * (dl / len);
           X[i] += W[i] * corr;
           X[j] -= W[j] * corr;
         }
       };
-      run_ranges(*cs.e_ranges, s.e_kinds, stretch);
+      with_multipliers(multipliers, *cs.e_ranges, s.e_kinds, stretch);
       if (bending) {
-        auto bend = [&](int first, int last) {
+        auto bend = [&](auto kept, int first, int last) {
           for (int k = first; k < last; ++k) {
             const SolverArrays::Bend& b = cs.bends[k];
             const double w0 = W[b.v[0]], w1 = W[b.v[1]], w2 = W[b.v[2]], w3 = W[b.v[3]];
@@ -421,15 +450,20 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
                               w3 * b.g[3] * b.g[3];
             if (wg == 0) continue;
             const Vec3 C = b.g[0] * X[b.v[0]] + b.g[1] * X[b.v[1]] + b.g[2] * X[b.v[2]] + b.g[3] * X[b.v[3]];
-            const Vec3 dl = (-C - alpha_b * s.lam_b[k]) / (wg + alpha_b);
-            s.lam_b[k] += dl;
+            Vec3 dl;
+            if constexpr (decltype(kept)::value) {
+              dl = (-C - alpha_b * s.lam_b[k]) / (wg + alpha_b);
+              s.lam_b[k] += dl;
+            } else {
+              dl = -C / (wg + alpha_b);
+            }
             X[b.v[0]] += (w0 * b.g[0]) * dl;
             X[b.v[1]] += (w1 * b.g[1]) * dl;
             X[b.v[2]] += (w2 * b.g[2]) * dl;
             X[b.v[3]] += (w3 * b.g[3]) * dl;
           }
         };
-        run_ranges(*cs.b_ranges, s.b_kinds, bend);
+        with_multipliers(multipliers, *cs.b_ranges, s.b_kinds, bend);
       }
     }
     // Tacks: zero-length, as stiff as the cloth, but closing by at most half the thickness a

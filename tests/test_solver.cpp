@@ -123,7 +123,7 @@ TEST(Xpbd, AFlapDroopsAsItsBendingStiffnessSaysHoweverTheStepIsSplit) {
   // interior edge, which bends resist), sticking out level under gravity: it droops until its
   // bending holds it. XPBD's multipliers make that droop the material's, whether a step is many
   // substeps of one iteration (the default) or few substeps of many. Without them (plain PBD) the
-  // flap stiffens with every iteration: measured, 4 mm at 40 iterations against 42 mm.
+  // flap stiffens with every iteration: measured, 11 mm at 5 and 2 mm at 40, against 42 mm.
   auto droop = [](int substeps, int iterations) {
     const int n = 5;
     Material mat;

@@ -591,7 +591,8 @@ int bench_command(const std::vector<std::string>& argv) {
 
   // 4. Scaling: a 1 m cloth falling onto the body, 20 steps after the one that builds its arrays:
   // 10 falling free (with the first contacts at the end) and 10 landing on the body and on itself
-  // (the contacts, and the self-collision pairs, grow from a few to about 8 a vertex). The sizes
+  // (a tenth of the vertices come to touch the body, and the self-collision pairs grow from none to
+  // 5-8 a vertex). The sizes
   // are stepped in turns, as the Bullet comparison's solvers are, so that a burst of load from
   // elsewhere on the machine falls on all of them rather than on the one that was running: each
   // turn is a step untimed (the size's arrays back into the cache after the others') and one timed.

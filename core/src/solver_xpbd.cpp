@@ -154,7 +154,8 @@ void run_ranges(const std::vector<int>& offsets, const std::vector<unsigned char
 }
 
 // run_ranges over f(kept, begin, end), kept a std::bool_constant: whether f keeps the XPBD
-// multipliers (more than one iteration) or leaves them out (one: each starts its substep at zero).
+// multipliers (more than one iteration) or takes them as zero and leaves them be (one: each is
+// zero when its constraint is projected).
 template <typename F>
 void with_multipliers(bool multipliers, const std::vector<int>& offsets, const std::vector<unsigned char>& kinds,
                       F& f) {
@@ -428,13 +429,9 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
           const double len = d.norm();
           if (!(len > 1e-12)) continue;
           const double C = len - cs.e_rest[k];
-          double dl;
-          if constexpr (decltype(kept)::value) {
-            dl = (-C - alpha_s * s.lam_e[k]) / (wsum + alpha_s);
-            s.lam_e[k] += dl;
-          } else {
-            dl = -C / (wsum + alpha_s);
-          }
+          const double lam = decltype(kept)::value ? s.lam_e[k] : 0.0;
+          const double dl = (-C - alpha_s * lam) / (wsum + alpha_s);
+          if constexpr (decltype(kept)::value) s.lam_e[k] += dl;
           const Vec3 corr = d * (dl / len);
           X[i] += W[i] * corr;
           X[j] -= W[j] * corr;
@@ -450,13 +447,9 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
                               w3 * b.g[3] * b.g[3];
             if (wg == 0) continue;
             const Vec3 C = b.g[0] * X[b.v[0]] + b.g[1] * X[b.v[1]] + b.g[2] * X[b.v[2]] + b.g[3] * X[b.v[3]];
-            Vec3 dl;
-            if constexpr (decltype(kept)::value) {
-              dl = (-C - alpha_b * s.lam_b[k]) / (wg + alpha_b);
-              s.lam_b[k] += dl;
-            } else {
-              dl = -C / (wg + alpha_b);
-            }
+            const Vec3 lam = decltype(kept)::value ? s.lam_b[k] : Vec3(Vec3::Zero());
+            const Vec3 dl = (-C - alpha_b * lam) / (wg + alpha_b);
+            if constexpr (decltype(kept)::value) s.lam_b[k] += dl;
             X[b.v[0]] += (w0 * b.g[0]) * dl;
             X[b.v[1]] += (w1 * b.g[1]) * dl;
             X[b.v[2]] += (w2 * b.g[2]) * dl;

@@ -10,6 +10,16 @@ import kiji
 from conftest import flat_session, line
 
 
+@pytest.fixture
+def ctrl_c():
+    """Ctrl-C raises KeyboardInterrupt, as at a terminal, even where the tests were started with
+    SIGINT ignored (in the background of a shell script, or under nohup), where Python leaves it
+    ignored and nothing could interrupt."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
 def test_simulate_reports_progress_and_stops_when_told():
     s, g = flat_session(0.5, 0.5, 11, 11)
     seen = []
@@ -19,14 +29,14 @@ def test_simulate_reports_progress_and_stops_when_told():
     assert s.time == pytest.approx(0.5 + 0.25, abs=1 / 60 + 1e-9)
 
 
-def test_ctrl_c_interrupts_a_simulation():
+def test_ctrl_c_interrupts_a_simulation(ctrl_c):
     s, g = flat_session(0.5, 0.5, 11, 11)
     with pytest.raises(KeyboardInterrupt):
         s.simulate(100.0, progress=lambda f: os.kill(os.getpid(), signal.SIGINT))
     assert s.time < 1.0 and g.is_valid()
 
 
-def test_ctrl_c_during_a_stroke_or_replay_leaves_nothing_half_applied(tmp_path):
+def test_ctrl_c_during_a_stroke_or_replay_leaves_nothing_half_applied(ctrl_c, tmp_path):
     s, g = flat_session(1.0, 1.0, 11, 11)
     before = g.positions
     with pytest.raises(KeyboardInterrupt):

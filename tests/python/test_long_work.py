@@ -17,7 +17,8 @@ def ctrl_c():
     ignored and nothing could interrupt."""
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     yield
-    signal.signal(signal.SIGINT, previous)
+    if previous is not None:  # None: a handler set outside Python, which cannot be put back from here
+        signal.signal(signal.SIGINT, previous)
 
 
 def test_simulate_reports_progress_and_stops_when_told():

@@ -114,7 +114,9 @@ TEST(Cli, BenchPrintsEveryFigureAsJson) {
         "\"speedup_at_equal_strain\":", "\"matched_strain_limit\":", "\"setup_ms\":", "\"max_strain\":", "\"sag_m\":",
         "\"haptics\":", "\"loop_hz\":", "\"jitter_us\":", "\"force_median_us\":", "\"force_p99_us\":", "\"realtime\":",
         "\"scaling\":", "\"ms_per_step\":", "\"falling_median_us_per_vertex\":",
-        "\"landing_median_us_per_vertex\":", "\"bytes_per_vertex\":", "\"scaling_growth\":", "\"falling_exponent_all_sizes\":",
+        "\"landing_median_us_per_vertex\":", "\"landing_self_pairs_per_vertex\":",
+        "\"landing_self_gathers_per_step\":", "\"landing_strain_limited_share\":", "\"bytes_per_vertex\":",
+        "\"scaling_growth\":", "\"falling_exponent_all_sizes\":",
         "\"falling_exponent_largest_two\":", "\"landing_exponent_all_sizes\":", "\"landing_exponent_largest_two\":"})
     EXPECT_NE(r.out.find(field), std::string::npos) << field << " missing";
   EXPECT_EQ(r.out.find("null"), std::string::npos) << "every figure measured: " << r.out;

@@ -264,6 +264,45 @@ TEST(Xpbd, AHandBringsFineClothAlongWithoutStretchingItAndAFirmOneWins) {
   EXPECT_GT(firm_corner.y(), plain_corner.y());
 }
 
+TEST(Xpbd, TheStepReportCountsTheEdgesTheStrainLimitHeld) {
+  // A cloth lying flat on a floor has no edge beyond the limit; its corner lifted fast by a hand,
+  // the edges around the corner are, and the report says how many (summed over the substeps); with
+  // the limit off it counts none, and the cloth stretches further.
+  const Body floor = test::make_floor();
+  auto lift = [&](double limit, std::size_t* at_rest, std::size_t* lifting, std::size_t* most, double* strain) {
+    Garment g = make_rectangle(1.0, 1.0, 33, 33);
+    lay_flat(g, Vec3(0, g.material().thickness, 0));
+    SolverParams p;
+    p.strain_limit = limit;
+    Solver solver(p);
+    solver.set_body(&floor);
+    *at_rest = *lifting = *most = 0;
+    for (int f = 0; f < 5; ++f) {
+      solver.step(g, 1.0 / 60);
+      *at_rest += solver.last_step().strain_limited;
+    }
+    const Vec3 start = g.position(Vertex(0));
+    const int hand = solver.add_attachment(Vertex(0), start, 200.0, false);
+    for (int f = 1; f <= 10; ++f) {
+      solver.move_attachment(hand, start + Vec3(0, 0.05 * f, 0));
+      solver.step(g, 1.0 / 60);
+      *lifting += solver.last_step().strain_limited;
+      *most = std::max(*most, solver.last_step().strain_limited);
+    }
+    *strain = solver.measure(g).max_strain;
+  };
+  std::size_t at_rest, lifting, most;
+  double limited_strain, free_strain;
+  lift(0.05, &at_rest, &lifting, &most, &limited_strain);
+  const std::size_t edges = make_rectangle(1.0, 1.0, 33, 33).mesh().number_of_edges();
+  EXPECT_EQ(at_rest, 0u) << "nothing pulls the flat cloth";
+  EXPECT_GT(lifting, 0u) << "the lifted corner's edges went beyond the limit";
+  EXPECT_LE(most, edges * std::size_t(SolverParams{}.substeps)) << "at most every edge in every substep";
+  lift(0.0, &at_rest, &lifting, &most, &free_strain);
+  EXPECT_EQ(lifting, 0u) << "no limit, nothing counted";
+  EXPECT_GT(free_strain, limited_strain);
+}
+
 namespace {
 // A 1 m strip folded over itself at 0.6 m: the lower layer (pinned flat at y = 0, 0.57 m long)
 // and a shorter upper layer 4 cm above it, joined by a half circle. Returns the pattern x where

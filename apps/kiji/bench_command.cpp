@@ -606,11 +606,12 @@ int bench_command(const std::vector<std::string>& argv) {
     std::unique_ptr<Solver> solver;
     double bytes = 0;
     std::vector<double> step_ms;  // the timed steps in order
+    std::vector<StepReport> work;  // what each did
   };
   std::vector<Scaled> sized;
   for (int v : scaling_sizes) {
     const double before = heap_bytes();
-    Scaled c{cloth_of(v), std::make_unique<Solver>(), 0, {}};
+    Scaled c{cloth_of(v), std::make_unique<Solver>(), 0, {}, {}};
     place_over_body(c.garment, body);
     c.solver->set_body(&body);
     c.solver->step(c.garment, 1.0 / 60);  // builds the arrays
@@ -623,6 +624,7 @@ int bench_command(const std::vector<std::string>& argv) {
       const auto t0 = Clock::now();
       c.solver->step(c.garment, 1.0 / 60);
       c.step_ms.push_back(1000 * seconds_since(t0));
+      c.work.push_back(c.solver->last_step());
     }
   auto median_of = [](std::vector<double> t) {
     std::sort(t.begin(), t.end());
@@ -639,12 +641,25 @@ int bench_command(const std::vector<std::string>& argv) {
     const double fall = median_of({t.begin(), t.begin() + kTurns / 2}), land = median_of({t.begin() + kTurns / 2, t.end()});
     const double nv = double(c.garment.mesh().number_of_vertices());
     vertices.push_back(nv), falling.push_back(fall), landing.push_back(land);
+    // The landing's work, counted (the same in every run, unlike its time): self-collision pairs
+    // a vertex and searches a step, and the share of the edges beyond the strain limit a substep.
+    double pairs = 0, gathers = 0, limited = 0;
+    for (std::size_t k = kTurns / 2; k < c.work.size(); ++k)
+      pairs += double(c.work[k].self_pairs), gathers += c.work[k].self_gathers, limited += double(c.work[k].strain_limited);
+    const double landing_steps = double(c.work.size() - kTurns / 2);
+    pairs /= landing_steps * nv, gathers /= landing_steps;
+    limited /= landing_steps * double(c.solver->params().substeps) * double(c.garment.mesh().number_of_edges());
     say("   V = %6.0f: %.2f ms a step (%.3f us a vertex); median falling %.2f ms (%.3f us a vertex), landing %.2f ms "
         "(%.3f); %.0f bytes a vertex\n", nv, ms, 1000 * ms / nv, fall, 1000 * fall / nv, land, 1000 * land / nv,
         c.bytes / nv);
+    say("              landing's work a step: %.2f self-collision pairs a vertex in %.1f searches; %.1f %% of the "
+        "edges beyond the strain limit a substep\n", pairs, gathers, 100 * limited);
     scaling.push_back(Json().number("vertices", nv).number("ms_per_step", ms).number("us_per_vertex", 1000 * ms / nv)
                           .number("falling_median_us_per_vertex", 1000 * fall / nv)
                           .number("landing_median_us_per_vertex", 1000 * land / nv)
+                          .number("landing_self_pairs_per_vertex", pairs)
+                          .number("landing_self_gathers_per_step", gathers)
+                          .number("landing_strain_limited_share", limited)
                           .number("bytes_per_vertex", c.bytes / nv).str());
   }
   // Time ~ V^k: k over all the sizes (least squares on the logarithms) and between the two

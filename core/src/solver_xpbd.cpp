@@ -208,6 +208,7 @@ void limit_strain(SolverArrays& s, const Constraints& cs, double limit) {
     s.over.clear();
     for (int piece = 0; piece < pieces; ++piece)
       s.over.insert(s.over.end(), s.over_found[piece].begin(), s.over_found[piece].end());
+    if (round == 0) s.report.strain_limited += s.over.size();
     if (s.over.empty()) return;
     // The offending edges are in edge order: they fall in the edges' ranges, and each range's run
     // is projected as the range is (blocks in parallel, each in sequence; colour groups in

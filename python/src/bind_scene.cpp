@@ -130,15 +130,21 @@ void bind_scene(py::module_& m) {
                ", max_strain=" + std::to_string(c.max_strain) + ", contacts=" + std::to_string(c.contacts) + ")";
       });
 
-  py::class_<StepReport>(m, "StepReport", "What the last step did: self-collision searches and pairs.")
+  py::class_<StepReport>(m, "StepReport",
+                         "What the last step did: self-collision searches and pairs, and the strain limit's work.")
       .def_readonly("self_gathers", &StepReport::self_gathers, "searches for self-collision pairs in the step")
       .def_readonly("self_pairs", &StepReport::self_pairs, "vertex-triangle pairs found, summed over the searches")
       .def_readonly("self_overloaded", &StepReport::self_overloaded,
                     "a search met more pairs than its budget (about 256 a vertex): the garment is in a knot, "
                     "and some pairs were left out; undo, or let go of what pulls it through itself")
+      .def_readonly("strain_limited", &StepReport::strain_limited,
+                    "edges found beyond the strain limit, summed over the substeps: a large share of the edges "
+                    "every substep means the cloth is held by the limit, not by its own stiffness (more substeps "
+                    "or iterations, or a stiffer cloth)")
       .def("__repr__", [](const StepReport& r) {
         return "StepReport(self_gathers=" + std::to_string(r.self_gathers) + ", self_pairs=" +
-               std::to_string(r.self_pairs) + ", self_overloaded=" + (r.self_overloaded ? "True" : "False") + ")";
+               std::to_string(r.self_pairs) + ", self_overloaded=" + (r.self_overloaded ? "True" : "False") +
+               ", strain_limited=" + std::to_string(r.strain_limited) + ")";
       });
 
   // --- Body ---

@@ -89,6 +89,12 @@ struct StepReport {
   // its knot tightened, and the next step ran out of memory; with the budget, at most 0.4 GB and
   // 3 s, and 0.2 s a step once the knot loosened.) Undo, or let go of what pulls it through itself.
   bool self_overloaded = false;
+  // Edges found beyond the strain limit (SolverParams::strain_limit), summed over the substeps
+  // (each substep's first look, before the limit projects them back). A few in a pulled seam or a
+  // fold are the limit at work; a large share of the edges every substep means the cloth is held
+  // by the limit rather than by its stretch constraints (a soft cloth, few substeps, a crash into
+  // the body or into itself): more substeps or iterations, or a stiffer cloth, leave it less to do.
+  std::size_t strain_limited = 0;
 };
 
 class Solver {

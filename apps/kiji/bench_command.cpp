@@ -644,8 +644,10 @@ int bench_command(const std::vector<std::string>& argv) {
     // The landing's work, counted (the same in every run, unlike its time): self-collision pairs
     // a vertex and searches a step, and the share of the edges beyond the strain limit a substep.
     double pairs = 0, gathers = 0, limited = 0;
-    for (std::size_t k = kTurns / 2; k < c.work.size(); ++k)
-      pairs += double(c.work[k].self_pairs), gathers += c.work[k].self_gathers, limited += double(c.work[k].strain_limited);
+    for (std::size_t k = kTurns / 2; k < c.work.size(); ++k) {
+      pairs += double(c.work[k].self_pairs), gathers += c.work[k].self_gathers;
+      limited += double(c.work[k].strain_limited);
+    }
     const double landing_steps = double(c.work.size() - kTurns / 2);
     pairs /= landing_steps * nv, gathers /= landing_steps;
     limited /= landing_steps * double(c.solver->params().substeps) * double(c.garment.mesh().number_of_edges());

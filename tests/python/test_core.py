@@ -177,7 +177,7 @@ def test_last_step_reports_the_self_collision_work():
     s.step()
     r = s.last_step()
     assert r.self_overloaded, r
-    # Its edges crushed to a cent of their length: the strain limit finds most of them every substep.
+    # Its 12 mm edges thrown about a 1 cm cube: the strain limit finds most of them every substep.
     assert r.strain_limited > 10 * g.vertex_count, r
     assert np.isfinite(g.positions).all()
 

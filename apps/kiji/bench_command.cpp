@@ -591,13 +591,12 @@ int bench_command(const std::vector<std::string>& argv) {
 
   // 4. Scaling: a 1 m cloth falling onto the body, 20 steps after the one that builds its arrays:
   // 10 falling free (with the first contacts at the end) and 10 landing on the body and on itself
-  // (a tenth of the vertices come to touch the body, and the self-collision pairs grow from none to
-  // 5-8 a vertex). The sizes
-  // are stepped in turns, as the Bullet comparison's solvers are, so that a burst of load from
-  // elsewhere on the machine falls on all of them rather than on the one that was running: each
-  // turn is a step untimed (the size's arrays back into the cache after the others') and one timed.
-  // Each phase's median timed step, which such a burst moves less than a mean, and the growth
-  // exponent fitted to them.
+  // (a tenth of the vertices come to touch the body; the landing's work is counted below). The
+  // sizes are stepped in turns, as the Bullet comparison's solvers are, so that a burst of load
+  // from elsewhere on the machine falls on all of them rather than on the one that was running:
+  // each turn is a step untimed (the size's arrays back into the cache after the others') and one
+  // timed. Each phase's median timed step, which such a burst moves less than a mean, and the
+  // growth exponent fitted to them.
   constexpr int kTurns = 10;
   say("4. scaling (xpbd, cloth falling onto the body; the sizes stepped in turns, every second step timed: median "
       "step falling free, then landing on the body and itself)\n");

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 namespace {
 
@@ -115,7 +116,8 @@ TEST(Cli, BenchPrintsEveryFigureAsJson) {
         "\"haptics\":", "\"loop_hz\":", "\"jitter_us\":", "\"force_median_us\":", "\"force_p99_us\":", "\"realtime\":",
         "\"scaling\":", "\"ms_per_step\":", "\"falling_median_us_per_vertex\":",
         "\"landing_median_us_per_vertex\":", "\"landing_self_pairs_per_vertex\":",
-        "\"landing_self_gathers_per_step\":", "\"landing_strain_limited_share\":", "\"bytes_per_vertex\":",
+        "\"landing_self_gathers_per_step\":", "\"landing_strain_limited_share\":",
+        "\"landing_edges_moved_per_substep\":", "\"bytes_per_vertex\":", "\"scaling_substeps\": 10,",
         "\"scaling_growth\":", "\"falling_exponent_all_sizes\":",
         "\"falling_exponent_largest_two\":", "\"landing_exponent_all_sizes\":", "\"landing_exponent_largest_two\":"})
     EXPECT_NE(r.out.find(field), std::string::npos) << field << " missing";
@@ -123,6 +125,9 @@ TEST(Cli, BenchPrintsEveryFigureAsJson) {
   r = run("bench --sizes 3,x");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("--sizes expects vertex counts"), std::string::npos) << r.out;
+  r = run("bench --quick --scaling-substeps 0");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("--scaling-substeps expects a whole number of substeps from 1 to 1000"), std::string::npos) << r.out;
   r = run("bench --quick --tools pinch,tweak");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("'tweak' is not a row of the tables"), std::string::npos) << r.out;
@@ -140,4 +145,26 @@ TEST(Cli, BenchToolsPicksTheRowsOfThePapersTables) {
   EXPECT_NE(rates.find("\"sew\": {\"steps_per_second\":"), std::string::npos) << rates;
   for (const char* absent : {"\"pinch\":", "\"pinch_landing\":", "\"tear\":", "\"cut\":", "\"paint\":"})
     EXPECT_EQ(rates.find(absent), std::string::npos) << absent << " was not asked for: " << rates;
+}
+
+// --scaling-substeps reaches the scaling section's solver: at twice the substeps the landing moves
+// the cloth about half as many edges a substep (the same fall, in substeps half as long).
+TEST(Cli, BenchScalingSubstepsSetsTheScalingSolversSubsteps) {
+  auto edges_moved = [](const std::string& out) {
+    std::vector<double> found;
+    const std::string key = "\"landing_edges_moved_per_substep\": ";
+    for (std::size_t at = out.find(key); at != std::string::npos; at = out.find(key, at + 1))
+      found.push_back(std::stod(out.substr(at + key.size())));
+    return found;
+  };
+  const std::string rest = " --quick --json --sizes 289 --tools pinch --scaling-sizes 400";
+  CliRun r10 = run("bench" + rest), r20 = run("bench --scaling-substeps 20" + rest);
+  ASSERT_EQ(r10.code, 0) << r10.out;
+  ASSERT_EQ(r20.code, 0) << r20.out;
+  EXPECT_NE(r20.out.find("\"scaling_substeps\": 20,"), std::string::npos) << r20.out;
+  const std::vector<double> at10 = edges_moved(r10.out), at20 = edges_moved(r20.out);
+  ASSERT_EQ(at10.size(), 1u) << r10.out;
+  ASSERT_EQ(at20.size(), 1u) << r20.out;
+  EXPECT_GT(at10[0], 0.0);
+  EXPECT_NEAR(at20[0] / at10[0], 0.5, 0.1) << at10[0] << " edges a substep at 10 substeps, " << at20[0] << " at 20";
 }

@@ -447,17 +447,19 @@ HapticStats haptics(const Body& body, int vertices, double seconds, std::shared_
 
 int bench_command(const std::vector<std::string>& argv) {
   const Args args(argv, {"--sizes", "--tools", "--bullet-sizes", "--scaling-sizes", "--haptic-vertices", "--haptic-seconds",
-                   "--frames"},
+                   "--frames", "--scaling-substeps"},
                   {"--json", "--quick", "--help", "-h"});
   if (args.has("--help") || args.has("-h")) {
     std::puts(
         "usage: kiji bench [--json] [--quick] [--sizes V,V,...] [--tools T,T,...] [--bullet-sizes V,...]\n"
-        "                  [--scaling-sizes V,...] [--haptic-vertices V] [--haptic-seconds S] [--frames N]\n\n"
+        "                  [--scaling-sizes V,...] [--scaling-substeps N] [--haptic-vertices V] [--haptic-seconds S]\n"
+        "                  [--frames N]\n\n"
         "Measures on this machine: (1) the paper's tables 1-2, steps and frames a second while each tool is in\n"
         "use, on the default body; (2) Kiji's solvers beside Bullet's btSoftBody on the same cloth; (3) the\n"
         "haptic loop while a garment simulates; (4) time per step and memory per vertex against size.\n"
         "--quick uses tiny sizes (a check that everything runs, not figures to quote). --tools picks the rows of\n"
-        "(1): pinch, pinch_local, pinch_landing, tear, cut, sew, paint (all by default).");
+        "(1): pinch, pinch_local, pinch_landing, tear, cut, sew, paint (all by default). --scaling-substeps sets\n"
+        "the substeps a step in (4) (10, the solver's default, unless given).");
     return 0;
   }
   const bool quick = args.has("--quick");
@@ -497,6 +499,10 @@ int bench_command(const std::vector<std::string>& argv) {
   const int haptic_vertices = static_cast<int>(args.number("--haptic-vertices", quick ? 400 : 20000));
   const double haptic_seconds = args.number("--haptic-seconds", quick ? 0.3 : 3.0);
   const int frames = static_cast<int>(args.number("--frames", quick ? 3 : 30));
+  SolverParams scaling_params;
+  scaling_params.substeps = args.integer("--scaling-substeps", scaling_params.substeps);
+  if (scaling_params.substeps < 1 || scaling_params.substeps > 1000)
+    throw UsageError("--scaling-substeps expects a whole number of substeps from 1 to 1000");
   if (frames < 1 || haptic_seconds <= 0 || haptic_vertices < 4)
     throw UsageError("--frames, --haptic-seconds and --haptic-vertices must be positive");
   const bool json = args.has("--json");
@@ -598,19 +604,23 @@ int bench_command(const std::vector<std::string>& argv) {
   // timed. Each phase's median timed step, which such a burst moves less than a mean, and the
   // growth exponent fitted to them.
   constexpr int kTurns = 10;
-  say("4. scaling (xpbd, cloth falling onto the body; the sizes stepped in turns, every second step timed: median "
-      "step falling free, then landing on the body and itself)\n");
+  say("4. scaling (xpbd, %d substeps a step, cloth falling onto the body; the sizes stepped in turns, every second step "
+      "timed: median step falling free, then landing on the body and itself)\n", scaling_params.substeps);
   struct Scaled {
     Garment garment;
     std::unique_ptr<Solver> solver;
     double bytes = 0;
     std::vector<double> step_ms;  // the timed steps in order
     std::vector<StepReport> work;  // what each did
+    std::vector<double> speed;     // the cloth's mean speed after each, m/s
+    double spacing = 0;            // its mean rest edge length, m
   };
   std::vector<Scaled> sized;
   for (int v : scaling_sizes) {
     const double before = heap_bytes();
-    Scaled c{cloth_of(v), std::make_unique<Solver>(), 0, {}, {}};
+    Scaled c{cloth_of(v), std::make_unique<Solver>(scaling_params), 0, {}, {}, {}, 0};
+    for (Edge e : c.garment.mesh().edges()) c.spacing += c.garment.rest_length(e);
+    c.spacing /= double(c.garment.mesh().number_of_edges());
     place_over_body(c.garment, body);
     c.solver->set_body(&body);
     c.solver->step(c.garment, 1.0 / 60);  // builds the arrays
@@ -624,6 +634,9 @@ int bench_command(const std::vector<std::string>& argv) {
       c.solver->step(c.garment, 1.0 / 60);
       c.step_ms.push_back(1000 * seconds_since(t0));
       c.work.push_back(c.solver->last_step());
+      double speed = 0;
+      for (Vertex u : c.garment.mesh().vertices()) speed += c.garment.velocity(u).norm();
+      c.speed.push_back(speed / double(c.garment.mesh().number_of_vertices()));
     }
   auto median_of = [](std::vector<double> t) {
     std::sort(t.begin(), t.end());
@@ -642,25 +655,34 @@ int bench_command(const std::vector<std::string>& argv) {
     vertices.push_back(nv), falling.push_back(fall), landing.push_back(land);
     // The landing's work, counted (the same in every run, unlike its time): self-collision pairs
     // a vertex and searches a step, and the share of the edges beyond the strain limit a substep.
-    double pairs = 0, gathers = 0, limited = 0;
+    // And how far the landing moves the cloth in a substep, in edges: one Gauss-Seidel sweep a
+    // substep carries a correction a few edges across the cloth, so the more edges the cloth
+    // crosses in a substep, the more of them it crushes or pulls out before the sweeps can stop it
+    // (the share beyond the strain limit follows this figure whatever the vertex count).
+    double pairs = 0, gathers = 0, limited = 0, speed = 0;
     for (std::size_t k = kTurns / 2; k < c.work.size(); ++k) {
       pairs += double(c.work[k].self_pairs), gathers += c.work[k].self_gathers;
       limited += double(c.work[k].strain_limited);
+      speed += c.speed[k];
     }
     const double landing_steps = double(c.work.size() - kTurns / 2);
+    const double substeps = double(c.solver->params().substeps);
     pairs /= landing_steps * nv, gathers /= landing_steps;
-    limited /= landing_steps * double(c.solver->params().substeps) * double(c.garment.mesh().number_of_edges());
+    limited /= landing_steps * substeps * double(c.garment.mesh().number_of_edges());
+    const double edges_a_substep = speed / landing_steps * (1.0 / 60) / substeps / c.spacing;
     say("   V = %6.0f: %.2f ms a step (%.3f us a vertex); median falling %.2f ms (%.3f us a vertex), landing %.2f ms "
         "(%.3f); %.0f bytes a vertex\n", nv, ms, 1000 * ms / nv, fall, 1000 * fall / nv, land, 1000 * land / nv,
         c.bytes / nv);
     say("              landing's work a step: %.2f self-collision pairs a vertex in %.1f searches; %.1f %% of the "
-        "edges beyond the strain limit a substep\n", pairs, gathers, 100 * limited);
+        "edges beyond the strain limit a substep, the cloth moving %.2f edges a substep\n", pairs, gathers,
+        100 * limited, edges_a_substep);
     scaling.push_back(Json().number("vertices", nv).number("ms_per_step", ms).number("us_per_vertex", 1000 * ms / nv)
                           .number("falling_median_us_per_vertex", 1000 * fall / nv)
                           .number("landing_median_us_per_vertex", 1000 * land / nv)
                           .number("landing_self_pairs_per_vertex", pairs)
                           .number("landing_self_gathers_per_step", gathers)
                           .number("landing_strain_limited_share", limited)
+                          .number("landing_edges_moved_per_substep", edges_a_substep)
                           .number("bytes_per_vertex", c.bytes / nv).str());
   }
   // Time ~ V^k: k over all the sizes (least squares on the logarithms) and between the two
@@ -700,6 +722,7 @@ int bench_command(const std::vector<std::string>& argv) {
                              .number("force_p99_us", h.force_p99_us).number("ticks", double(h.ticks))
                              .number("simulation_ms_per_step", sim_ms)
                              .field("realtime", h.realtime ? "true" : "false").str());
+    out.number("scaling_substeps", scaling_params.substeps);
     out.field("scaling", array(scaling));
     if (!growth.empty()) out.field("scaling_growth", growth);
     std::printf("%s\n", out.str().c_str());

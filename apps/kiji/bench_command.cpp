@@ -501,8 +501,11 @@ int bench_command(const std::vector<std::string>& argv) {
   const int frames = static_cast<int>(args.number("--frames", quick ? 3 : 30));
   SolverParams scaling_params;
   scaling_params.substeps = args.integer("--scaling-substeps", scaling_params.substeps);
-  if (scaling_params.substeps < 1 || scaling_params.substeps > 1000)
-    throw UsageError("--scaling-substeps expects a whole number of substeps from 1 to 1000");
+  try {
+    scaling_params.validate();  // now, not minutes later when section 4 starts
+  } catch (const InputError& e) {
+    throw UsageError(std::string("--scaling-substeps: ") + e.what());
+  }
   if (frames < 1 || haptic_seconds <= 0 || haptic_vertices < 4)
     throw UsageError("--frames, --haptic-seconds and --haptic-vertices must be positive");
   const bool json = args.has("--json");
@@ -607,6 +610,7 @@ int bench_command(const std::vector<std::string>& argv) {
   // crash comes to outrun the solver's sweeps (the edges moved a substep, below), and the largest
   // size shows whether it goes on rising (it levels off).
   constexpr int kTurns = 10;
+  constexpr double kDt = 1.0 / 60;
   say("4. scaling (xpbd, %d substeps a step, cloth falling onto the body; the sizes stepped in turns, every second step "
       "timed: median step falling free, then landing on the body and itself)\n", scaling_params.substeps);
   struct Scaled {
@@ -626,15 +630,15 @@ int bench_command(const std::vector<std::string>& argv) {
     c.spacing /= double(c.garment.mesh().number_of_edges());
     place_over_body(c.garment, body);
     c.solver->set_body(&body);
-    c.solver->step(c.garment, 1.0 / 60);  // builds the arrays
+    c.solver->step(c.garment, kDt);  // builds the arrays
     c.bytes = heap_bytes() - before;
     sized.push_back(std::move(c));
   }
   for (int turn = 0; turn < kTurns; ++turn)
     for (Scaled& c : sized) {
-      c.solver->step(c.garment, 1.0 / 60);
+      c.solver->step(c.garment, kDt);
       const auto t0 = Clock::now();
-      c.solver->step(c.garment, 1.0 / 60);
+      c.solver->step(c.garment, kDt);
       c.step_ms.push_back(1000 * seconds_since(t0));
       c.work.push_back(c.solver->last_step());
       double speed = 0;
@@ -672,7 +676,7 @@ int bench_command(const std::vector<std::string>& argv) {
     const double substeps = double(c.solver->params().substeps);
     pairs /= landing_steps * nv, gathers /= landing_steps;
     limited /= landing_steps * substeps * double(c.garment.mesh().number_of_edges());
-    const double edges_a_substep = speed / landing_steps * (1.0 / 60) / substeps / c.spacing;
+    const double edges_a_substep = speed / landing_steps * kDt / substeps / c.spacing;
     say("   V = %6.0f: %.2f ms a step (%.3f us a vertex); median falling %.2f ms (%.3f us a vertex), landing %.2f ms "
         "(%.3f); %.0f bytes a vertex\n", nv, ms, 1000 * ms / nv, fall, 1000 * fall / nv, land, 1000 * land / nv,
         c.bytes / nv);

@@ -11,6 +11,7 @@
 #include "kiji/tool.h"
 
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -81,6 +82,13 @@ class Session {
   bool undo();  // restores the garments as they were before the last stroke; false if none
   bool redo();
 
+  // --- threads ---
+  // A session is used by one thread at a time. Code that shares one between threads (an app's
+  // simulation thread and its script console, Python with the GIL released) holds this lock for
+  // each use; it is recursive so that a holder may call code that takes it again. The haptic
+  // thread never takes it: it reads only published snapshots.
+  std::recursive_mutex& mutex() const { return mutex_; }
+
  private:
   struct ActiveStroke;
   std::vector<Garment> snapshot() const;
@@ -96,6 +104,7 @@ class Session {
   std::map<std::string, std::unique_ptr<Tool>> tool_instances_;
   std::unique_ptr<ActiveStroke> active_;
   Journal journal_;
+  mutable std::recursive_mutex mutex_;
 };
 
 }  // namespace kiji

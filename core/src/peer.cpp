@@ -203,7 +203,7 @@ struct Peer::Impl {
     h.received = received_through();
     h.horizon = sequencer == id ? announced : horizon;
     h.next = sequencer == id ? next_gseq : known_next;
-    h.stop = stop;
+    h.stop = stop ? stop : opt.stop_step;
     if (sequencer == id)
       for (const auto& [origin, pseq] : ordered_hw) h.ordered.emplace_back(origin, pseq);
     send(kHeartbeat, encode(h));

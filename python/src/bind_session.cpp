@@ -25,12 +25,6 @@ struct PyAutosave {
   ~PyAutosave() { autosave.reset(); }
 };
 
-Phase parse_phase(const std::string& name) {
-  for (Phase p : {Phase::Begin, Phase::Move, Phase::End, Phase::Cancel})
-    if (name == phase_name(p)) return p;
-  throw InputError("unknown event phase '" + name + "': use 'begin', 'move', 'end' or 'cancel'");
-}
-
 py::object param_default(const ParamSpec& s) { return param_value_to_python(s.default_value); }
 
 py::dict report_dict(const PluginReport& r) {

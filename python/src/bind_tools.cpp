@@ -14,6 +14,12 @@ std::string label_or(const std::string& label, const std::string& name) { return
 
 Session& scope_session(const ToolSessionHandle& h) { return h.scope->get("the session"); }
 
+// A session's tool instance, with the session kept alive.
+struct ToolInstance {
+  std::shared_ptr<Session> session;
+  const Tool* tool;
+};
+
 }  // namespace
 
 void bind_tools(py::module_& m) {
@@ -80,6 +86,27 @@ void bind_tools(py::module_& m) {
     }, origin);
     return id;
   }, py::arg("cls"), py::arg("origin"));
+
+  // --- a session's tool instances ---
+  py::class_<ToolInstance>(m, "ToolInstance",
+      "The instance of a tool that a session's strokes use for one user (each user has their own): its\n"
+      "declaration, the force it renders on the haptic thread, and for a tool written in Python the Python\n"
+      "object itself.")
+      .def("info", [](const ToolInstance& t) { return t.tool->info(); })
+      .def("haptic_force", [](const ToolInstance& t, const HapticSnapshot& snapshot, const ToolEvent& e) {
+        return t.tool->haptic_force(snapshot, e);
+      }, py::arg("snapshot"), py::arg("event"),
+         "The force the haptic loop would send for a pointer on a snapshot (what HapticLoop asks at 1 kHz).")
+      .def_property_readonly("python", [](const ToolInstance& t) -> py::object {
+        if (auto* p = dynamic_cast<const PythonTool*>(t.tool)) return p->instance();
+        return py::none();
+      }, "The Python object of a tool written in Python (None for a C++ tool).");
+  auto session = py::reinterpret_borrow<py::class_<Session, std::shared_ptr<Session>>>(m.attr("Session"));
+  session.def("tool", [](const std::shared_ptr<Session>& s, const std::string& id, UserId user) {
+    SessionGuard lock(*s);
+    return ToolInstance{s, &s->tool(id, user)};
+  }, py::arg("id"), py::kw_only(), py::arg("user") = 0,
+     "The instance of a tool a user's strokes use (made on first use).");
 
   // --- what a tool written in Python works with ---
   py::class_<ToolSessionHandle>(m, "ToolSession",

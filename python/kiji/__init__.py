@@ -16,7 +16,7 @@ Garments are NumPy arrays (positions, faces, uvs, velocities, pins, texture); ba
 """
 from __future__ import annotations
 
-from . import _kiji
+from . import _kiji, _member_docs
 from ._kiji import (
     JOURNAL_FILE_VERSION,
     OPERATION_FORMAT_VERSION,
@@ -51,6 +51,7 @@ from ._kiji import (
     TopologyError,
     ToolEvent,
     ToolInfo,
+    ToolInstance,
     ToolRegistry,
     abi_tag,
     append_garment,
@@ -106,12 +107,13 @@ from ._kiji import rectangle
 from ._python_tools import ENTRY_POINT_GROUP, Tool, load_entry_point_tools, register_tool, unregister_tool
 
 __version__ = version()
+_member_docs.apply()
 
 __all__ = [
     "Body", "BodyCollider", "BodyContact", "Camera", "ClothMeasures", "DrapeResult", "Error", "Feedback",
     "Garment", "HapticLoop", "HapticSnapshot", "HistoryStep", "InputDevice", "InputError", "JournalFile",
     "JournalStroke", "Material", "Operation", "ParamSpec", "ScriptedDevice", "Session", "Solver", "SolverParams",
-    "StepReport", "SurfaceHit", "Tool", "ToolEvent", "ToolHaptics", "ToolInfo", "ToolRegistry", "ToolSession",
+    "StepReport", "SurfaceHit", "Tool", "ToolEvent", "ToolHaptics", "ToolInfo", "ToolInstance", "ToolRegistry", "ToolSession",
     "TopologyError", "ENTRY_POINT_GROUP", "JOURNAL_FILE_VERSION", "OPERATION_FORMAT_VERSION", "PACKAGE_PLUGIN_FOLDER",
     "SESSION_CHANNEL", "SESSION_FILE_PROTOCOL", "abi_tag", "append_garment", "axis_names", "border_loops",
     "border_path", "cut_along", "device_errors", "drape", "edge_path", "export_garment", "garment_bytes",

@@ -44,18 +44,23 @@ class Tool:
     haptic: _kiji.ToolHaptics
 
     def info(self) -> _kiji.ToolInfo:
+        """The tool's declaration: id, label, description, parameters (required)."""
         raise NotImplementedError(f"{type(self).__qualname__}.info() must return a kiji.ToolInfo")
 
     def begin(self, session: _kiji.ToolSession, params: dict, event: _kiji.ToolEvent) -> Any:
+        """The stroke starts (the button went down); params holds every declared parameter's value."""
         return None
 
     def update(self, session: _kiji.ToolSession, event: _kiji.ToolEvent) -> Any:
+        """The pointer moved with the button held."""
         return None
 
     def end(self, session: _kiji.ToolSession, event: _kiji.ToolEvent) -> None:
+        """The button was released: finish the edit."""
         return None
 
     def cancel(self, session: _kiji.ToolSession) -> None:
+        """The stroke was abandoned: release what the tool holds (the session restores the garments)."""
         return None
 
 

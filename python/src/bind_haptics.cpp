@@ -159,7 +159,7 @@ void bind_haptics(py::module_& m) {
       "which release it); see docs/python.md for measured rates. An error raised there goes to\n"
       "sys.unraisablehook (the loop goes on with the button up). The base class is a null device.")
       .def(py::init<>())
-      .def("name", &InputDevice::name)
+      .def("name", &InputDevice::name, "The device's name, for messages and status lines.")
       .def("sample", &InputDevice::sample, "The device's state now: a kiji.ToolEvent (position in world metres).")
       .def("set_force", [](InputDevice& d, py::handle f) { d.set_force(to_vec3(f, "force")); }, py::arg("force"),
            "The force to render, newtons (already clamped to max_force()).")

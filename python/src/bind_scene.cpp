@@ -117,7 +117,7 @@ void bind_scene(py::module_& m) {
       .def_property(
           "local_center", [](const SolverParams& p) { return vec3_array(p.local_center); },
           [](SolverParams& p, py::handle v) { p.local_center = to_vec3(v, "local_center"); })
-      .def("validate", &SolverParams::validate)
+      .def("validate", &SolverParams::validate, "Raises InputError naming the first parameter out of range.")
       .def("__repr__", [](const SolverParams& p) {
         return "SolverParams(model='" + solver_model_name(p.model) + "', substeps=" + std::to_string(p.substeps) +
                ", iterations=" + std::to_string(p.iterations) + ")";

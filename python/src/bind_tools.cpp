@@ -92,7 +92,7 @@ void bind_tools(py::module_& m) {
       "The instance of a tool that a session's strokes use for one user (each user has their own): its\n"
       "declaration, the force it renders on the haptic thread, and for a tool written in Python the Python\n"
       "object itself.")
-      .def("info", [](const ToolInstance& t) { return t.tool->info(); })
+      .def("info", [](const ToolInstance& t) { return t.tool->info(); }, "The tool's declaration (ToolInfo).")
       .def("haptic_force", [](const ToolInstance& t, const HapticSnapshot& snapshot, const ToolEvent& e) {
         return t.tool->haptic_force(snapshot, e);
       }, py::arg("snapshot"), py::arg("event"),

@@ -13,6 +13,10 @@ keyword arguments are the parameters the tool declares::
 
 Garments are NumPy arrays (positions, faces, uvs, velocities, pins, texture); bad input raises
 :class:`InputError` (a ValueError), :class:`TopologyError` or TypeError and changes nothing.
+A program drives a tool event by event with ``session.begin(tool, event, **params)``,
+``update(event)``, ``end(event)`` and ``cancel()``; a class with ``info``, ``begin``, ``update``,
+``end`` and ``cancel`` becomes a tool with :func:`register_tool` (see :class:`Tool`). The rest of
+the core is here too: :class:`Solver`, the topology edits, :class:`Operation`, :class:`HapticLoop`.
 """
 from __future__ import annotations
 

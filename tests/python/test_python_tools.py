@@ -319,3 +319,18 @@ def test_an_installed_package_provides_tools_through_the_kiji_tools_entry_point(
     assert "origin Python class kiji_extra_tools.Lift" in out.stdout
     assert "lacks info, begin, update, end, cancel" in out.stdout
     assert "tool entry point refused: entry point broken" in out.stderr
+
+
+def test_smooth_declares_the_push_of_the_cloth_that_the_haptic_loop_renders():
+    s, g = flat_session(1, 1, 11, 11)
+    s.simulating = False
+    s.begin("smooth", (0.5, 0.5, 0.002), radius=0.05)
+    smooth = s.tool("smooth")
+    assert smooth.python.haptic.model == "push"
+    snap = kiji.take_snapshot(s, 0, (0.5, 0.5, 0.0), 0.3)
+    above, below, away = ((0.5, 0.5, 0.002), (0.5, 0.5, -0.001), (0.5, 0.5, 0.01))
+    np.testing.assert_allclose(smooth.haptic_force(snap, kiji.ToolEvent("move", above)).force, (0, 0, 300 * 0.003))
+    np.testing.assert_allclose(smooth.haptic_force(snap, kiji.ToolEvent("move", below)).force, (0, 0, -300 * 0.004))
+    np.testing.assert_array_equal(smooth.haptic_force(snap, kiji.ToolEvent("move", away)).force, 0.0)
+    s.end((0.5, 0.5, 0.002))
+    assert smooth.python.haptic.model == "push"  # the pen still feels the cloth between strokes

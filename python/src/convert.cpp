@@ -227,10 +227,12 @@ ToolEvent event_arg(py::handle event, Phase phase, double default_time) {
   ToolEvent e;
   if (py::isinstance<ToolEvent>(event)) {
     e = event.cast<ToolEvent>();
-    if (e.phase != phase)
-      throw InputError(std::string("expected a '") + phase_name(phase) + "' event, not a '" + phase_name(e.phase) +
-                       "' one: make it with kiji.ToolEvent('" + phase_name(phase) + "', position, ...), or pass the "
-                       "pointer position alone");
+    if (e.phase != phase) {
+      const auto article = [](Phase p) { return p == Phase::End ? "an '" : "a '"; };
+      throw InputError(std::string("expected ") + article(phase) + phase_name(phase) + "' event, not " +
+                       article(e.phase) + phase_name(e.phase) + "' one: make it with kiji.ToolEvent('" +
+                       phase_name(phase) + "', position, ...), or pass the pointer position alone");
+    }
     return e;
   }
   if (event.is_none())

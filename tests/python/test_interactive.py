@@ -85,7 +85,7 @@ def test_bad_events_are_refused_with_what_to_do_and_change_nothing():
     s.begin("pinch", (0.5, 0.5, 0.0))
     with pytest.raises(kiji.InputError, match="in progress"):
         s.begin("cut", (0.5, 0.5, 0.0))
-    with pytest.raises(kiji.InputError, match="expected a 'end' event"):
+    with pytest.raises(kiji.InputError, match="expected an 'end' event"):
         s.end(kiji.ToolEvent("move", (0.5, 0.5, 0.0)))
     s.end((0.5, 0.5, 0.0))
 

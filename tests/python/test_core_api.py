@@ -306,3 +306,18 @@ def test_an_error_in_a_python_device_is_reported_and_the_loop_goes_on(monkeypatc
         time.sleep(0.05)
     assert kiji.device_errors() > errors_before and loop.stats()["ticks"] > 3
     assert reported and reported[0] == (RuntimeError, "the cable came loose")
+
+
+def test_a_program_that_ends_with_the_loop_still_running_exits_cleanly():
+    import subprocess
+    import sys
+    code = ("import time, kiji\n"
+            "class D(kiji.InputDevice):\n"
+            "    def sample(self):\n"
+            "        return kiji.ToolEvent('move', (0, 0, 0))\n"
+            "loop = kiji.HapticLoop(D())\n"
+            "loop.start()\n"
+            "time.sleep(0.05)\n"
+            "print('bye')\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0 and out.stdout.strip() == "bye", out.stderr

@@ -17,6 +17,8 @@
 #include <sodium.h>
 
 #include <chrono>
+#include <cmath>
+#include <optional>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -36,17 +38,19 @@ constexpr const char* kPeerHelp =
     "prove the peers agree. See docs/peers.md.\n\n"
     "  --key-file FILE     the session's shared secret; with --host a missing file is made (a fresh random\n"
     "                      key, readable by its owner only): give it to the others\n"
-    "  --host              start the shared session from this peer's state\n"
-    "  --journal FILE      (host) the state to start from: a saved journal or session file\n"
-    "  --garment rect:W,H,S  (host, without --journal) a rectangle over the default body [rect:0.6,0.6,0.02]\n"
+    "  --host              start the shared session (the default body; --journal for a saved one)\n"
+    "  --journal FILE      (host) the session to start from: a saved journal or session file\n"
+    "  --garment rect:W,H,S  add a W x H m rectangle (vertices S m apart) over the body once in the\n"
+    "                      session [a host with neither: rect:0.6,0.6,0.02]\n"
     "  --name NAME         this user's name as the others see it\n"
     "  --url URL           the LCM network [udpm://239.255.76.67:7667?ttl=0: this host only; ttl=1: the LAN]\n"
     "  --channel NAME      the LCM channel [KIJI_PEER]\n"
-    "  --replay FILE       play a journal's strokes as this peer's user, in real time, once joined\n"
-    "  --stop-step N       (host) the shared clock stops at step N\n"
-    "  --seconds S         leave after S seconds (default: at Ctrl-C; with --stop-step: once all agree there)\n"
+    "  --replay FILE       play a journal's strokes as this peer's user, at their times on the shared clock\n"
+    "  --seconds S         run until the shared clock reaches S simulated seconds (the host stops it there)\n"
+    "                      and every peer has the same state hash, then leave [default: until Ctrl-C]\n"
+    "  --timeout T         give up after T seconds of wall time, saying so [60 + 3 S]\n"
     "  --out FILE          write garment 0 (.glb or .obj) when leaving\n"
-    "  --json              print a JSON summary when leaving\n";
+    "  --json              print {state_hash, peers, time, ...} when leaving\n";
 
 volatile std::sig_atomic_t g_interrupted = 0;
 void on_interrupt(int) { g_interrupted = 1; }
@@ -87,8 +91,8 @@ struct ReplayEvent {
 
 int peer_command(const std::vector<std::string>& argv) {
   const Args args(argv,
-                  {"--key-file", "--journal", "--garment", "--name", "--url", "--channel", "--replay", "--stop-step",
-                   "--seconds", "--out"},
+                  {"--key-file", "--journal", "--garment", "--name", "--url", "--channel", "--replay", "--seconds",
+                   "--timeout", "--out"},
                   {"--host", "--json", "--help", "-h"});
   if (args.has("--help") || args.has("-h")) {
     std::fputs(kPeerHelp, stdout);
@@ -96,26 +100,24 @@ int peer_command(const std::vector<std::string>& argv) {
   }
   if (!args.has("--key-file")) throw UsageError("give the session's key with --key-file FILE (see --help)");
   const bool host = args.has("--host");
-  if (!host && (args.has("--journal") || args.has("--garment") || args.has("--stop-step")))
-    throw UsageError("--journal, --garment and --stop-step are the host's: a joiner gets the host's session");
+  if (!host && args.has("--journal")) throw UsageError("--journal is the host's: a joiner gets the host's session");
   const std::string out = args.get("--out", "");
   if (!out.empty()) {
     const std::string ext = std::filesystem::path(out).extension().string();
     if (ext != ".glb" && ext != ".obj") throw InputError("--out '" + out + "' must end in .glb or .obj");
   }
   const double seconds = args.number("--seconds", 0);
-  if (!(seconds >= 0)) throw UsageError("--seconds must be 0 (until Ctrl-C) or more");
+  if (!(seconds >= 0 && seconds <= 1e6)) throw UsageError("--seconds must be between 0 (until Ctrl-C) and 1e6");
+  const double timeout = args.number("--timeout", 60 + 3 * seconds);
+  if (!(timeout > 0)) throw UsageError("--timeout must be more than 0 seconds");
+  std::optional<RectSpec> garment_spec;
+  if (args.has("--garment")) garment_spec = RectSpec::parse(args.get("--garment", ""));
+  else if (host && !args.has("--journal")) garment_spec = RectSpec::parse("rect:0.6,0.6,0.02");
 
   PeerOptions options;
   options.key = read_or_make_key(args.get("--key-file", ""), host);
   options.host = host;
   options.name = args.get("--name", host ? "host" : "peer");
-  if (args.has("--stop-step")) {
-    const double s = args.number("--stop-step", 0);
-    if (!(s >= 1 && s <= 1e12) || s != static_cast<double>(static_cast<std::uint64_t>(s)))
-      throw UsageError("--stop-step must be a whole number of steps, 1 or more");
-    options.stop_step = static_cast<std::uint64_t>(s);
-  }
   PeerNetwork network;
   network.url = args.get("--url", network.url);
   network.channel = args.get("--channel", network.channel);
@@ -130,18 +132,19 @@ int peer_command(const std::vector<std::string>& argv) {
 
   Session session;
   if (host) {
-    if (args.has("--journal")) {
-      replay_file(session, args.get("--journal", ""));
-    } else {
-      const Body body = Body::load(Body::default_path());
-      const RectSpec spec = RectSpec::parse(args.get("--garment", "rect:0.6,0.6,0.02"));
-      Garment garment = make_rectangle_spaced(spec.width, spec.height, spec.spacing);
-      garment.name = "shared";
-      place_over_body(garment, body);
-      session.set_body(body);
-      session.add_garment(garment);
-    }
+    if (args.has("--journal")) replay_file(session, args.get("--journal", ""));
+    else session.set_body(Body::load(Body::default_path()));
+    // The shared clock stops at --seconds (a whole step at or after it).
+    if (seconds > 0) options.stop_step = static_cast<std::uint64_t>(std::ceil(seconds * session.frame_rate() - 1e-9));
   }
+  auto add_garment = [&] {  // placed over the body as kiji drape places it
+    Garment garment = make_rectangle_spaced(garment_spec->width, garment_spec->height, garment_spec->spacing);
+    garment.name = args.get("--name", host ? "host" : "peer");
+    if (session.body()) place_over_body(garment, *session.body());
+    session.add_garment(garment);
+  };
+  if (host && garment_spec) add_garment();
+  bool garment_added = host || !garment_spec;
 
   std::signal(SIGINT, on_interrupt);
   std::signal(SIGTERM, on_interrupt);
@@ -150,16 +153,26 @@ int peer_command(const std::vector<std::string>& argv) {
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
   std::size_t next = 0;
   double replay_start = -1;
-  std::uint64_t stop_step = options.stop_step;
+  std::uint64_t stop_step = 0;
   bool agreed = false;
   if (!args.has("--json"))
     std::fprintf(stderr, "kiji peer: %s the session on %s (Ctrl-C leaves)\n", host ? "hosting" : "joining",
                  network.url.c_str());
+  bool timed_out = false;
   while (!g_interrupted && runner.running()) {
-    if (seconds > 0 && elapsed() >= seconds) break;
+    if (elapsed() >= timeout && (seconds > 0 || args.has("--timeout"))) {
+      timed_out = true;
+      break;
+    }
     const bool done = runner.with_peer([&](Peer& peer) {
       if (!peer.joined()) return false;
-      if (stop_step == 0) stop_step = peer.stop_step();
+      if (!garment_added) {
+        garment_added = true;
+        add_garment();
+      }
+      if (stop_step == 0 && seconds > 0)
+        stop_step = peer.stop_step() ? peer.stop_step()
+                                     : static_cast<std::uint64_t>(std::ceil(seconds * session.frame_rate() - 1e-9));
       // The strokes, each event when its time comes, a little ahead of the shared clock.
       if (replay_start < 0 && next < events.size()) replay_start = session.time() + 0.1;
       while (next < events.size() && replay_start + events[next].at <= session.time() + 0.05) {
@@ -197,6 +210,7 @@ int peer_command(const std::vector<std::string>& argv) {
                {"state_hash", peer.state_hash()},
                {"converged", peer.converged()},
                {"agreed_at_stop", agreed},
+               {"timed_out", timed_out},
                {"applied", peer.applied()},
                {"sequencer", peer.sequencer()},
                {"epoch", peer.epoch()},
@@ -232,11 +246,13 @@ int peer_command(const std::vector<std::string>& argv) {
                 static_cast<unsigned long long>(summary["messages_sent"].get<std::uint64_t>()),
                 static_cast<unsigned long long>(summary["messages_received"].get<std::uint64_t>()));
   }
+  if (timed_out)
+    std::fprintf(stderr, "kiji peer: timed out after %.0f s before the peers agreed at the stop\n", timeout);
   if (!failure.empty()) {
     std::fprintf(stderr, "kiji peer: stopped: %s\n", failure.c_str());
     return 1;
   }
-  return 0;
+  return timed_out ? 3 : 0;
 }
 
 }  // namespace kiji::cli

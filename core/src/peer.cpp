@@ -16,6 +16,8 @@ namespace kiji {
 using namespace detail;
 
 namespace {
+// How long a join may wait for the strokes in progress to end (seconds).
+constexpr double kJoinWaitForStrokes = 2.0;
 
 constexpr std::size_t kInlinePayload = 900;    // larger ordered payloads go as blobs
 constexpr std::size_t kKeepApplied = 8192;     // applied orders kept to repair others' gaps
@@ -321,7 +323,11 @@ struct Peer::Impl {
   }
 
   void sequencer_duties() {
-    if (!joins.empty() && now - first_join >= 0.02) order_checkpoint();
+    // A checkpoint cancels the strokes in progress (a tool's state is not in a snapshot): joins wait
+    // for them to end, up to kJoinWaitForStrokes, so that a user's pull is not undone by a join.
+    if (!joins.empty() && now - first_join >= 0.02 &&
+        (session.active_users().empty() || now - first_join >= kJoinWaitForStrokes))
+      order_checkpoint();
     // Peers gone silent, or that said goodbye, leave the order (their strokes end, their leases go).
     for (auto& [pid, k] : peers) {
       if (left.count(pid) || !k.joined || k.heard < 0) continue;

@@ -185,6 +185,13 @@ std::vector<UserId> Session::active_users() const {
   return out;
 }
 
+const std::string& Session::stroke_tool(UserId user) const {
+  static const std::string none;
+  if (!gate_) return active_tool(user);
+  auto p = proposed_.find(user);
+  return p != proposed_.end() ? p->second : none;
+}
+
 const std::string& Session::active_tool(UserId user) const {
   static const std::string none;
   auto it = active_.find(user);
@@ -223,6 +230,8 @@ Feedback Session::apply(Tool& tool, const ToolEvent& event, const ParamSet* para
     if (e.phase == Phase::Begin && !params) throw InputError("a '" + input.tool + "' stroke begins without parameters");
     const double ahead = std::max(0.0, e.time - time_);
     if (ahead > max_advance_seconds) advance_to(e.time);  // throws, saying why
+    if (e.phase == Phase::Begin) proposed_[user] = input.tool;
+    if (e.phase == Phase::End || e.phase == Phase::Cancel) proposed_.erase(user);
     submit({steps_ + static_cast<std::uint64_t>(std::ceil(ahead * frame_rate_ - 1e-9)), user, std::move(input)});
     return {};
   }
@@ -555,6 +564,7 @@ void Session::set_gate(OperationGate gate, const void* owner) {
 }
 
 void Session::clear_gate() {
+  proposed_.clear();
   gate_ = nullptr;
   gate_owner_ = nullptr;
 }

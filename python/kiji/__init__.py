@@ -45,6 +45,7 @@ from ._kiji import (
     Material,
     Operation,
     ParamSpec,
+    Peer,
     ScriptedDevice,
     Solver,
     SolverParams,
@@ -85,6 +86,7 @@ from ._kiji import (
     render,
     save_journal,
     save_operations,
+    session_state_hash,
     split_vertex,
     split_vertex_between,
     stitch,
@@ -116,7 +118,7 @@ _member_docs.apply()
 __all__ = [
     "Body", "BodyCollider", "BodyContact", "Camera", "ClothMeasures", "DrapeResult", "Error", "Feedback",
     "Garment", "HapticLoop", "HapticSnapshot", "HistoryStep", "InputDevice", "InputError", "JournalFile",
-    "JournalStroke", "Material", "Operation", "ParamSpec", "ScriptedDevice", "Session", "Solver", "SolverParams",
+    "JournalStroke", "Material", "Operation", "ParamSpec", "Peer", "ScriptedDevice", "Session", "Solver", "SolverParams",
     "StepReport", "SurfaceHit", "Tool", "ToolEvent", "ToolHaptics", "ToolInfo", "ToolInstance", "ToolRegistry", "ToolSession",
     "TopologyError", "ENTRY_POINT_GROUP", "JOURNAL_FILE_VERSION", "OPERATION_FORMAT_VERSION", "PACKAGE_PLUGIN_FOLDER",
     "SESSION_CHANNEL", "SESSION_FILE_PROTOCOL", "abi_tag", "append_garment", "axis_names", "border_loops",
@@ -124,7 +126,7 @@ __all__ = [
     "hash_bytes", "load", "load_entry_point_tools", "load_garment", "load_journal", "load_plugins",
     "load_session_operations", "merge_vertices", "non_manifold_vertices", "panel", "parse_journal", "pick",
     "place_over_body", "plugin_folders", "plugin_reports", "read_journal", "read_png", "recover", "rectangle",
-    "register_tool", "registry", "remove_edge", "remove_edges", "render", "save_journal", "save_operations",
+    "register_tool", "registry", "remove_edge", "remove_edges", "render", "save_journal", "save_operations", "session_state_hash",
     "split_vertex", "split_vertex_between", "stitch", "strokes_of", "take_snapshot", "tool_info",
     "tool_metadata_json", "tools", "unregister_tool", "use_registry", "version", "write_png",
 ]

@@ -27,8 +27,8 @@ unshare -rn bash -euo pipefail -c '
     nft add chain ip kiji_loss prerouting "{ type filter hook prerouting priority -450; }"
     nft add rule ip kiji_loss prerouting udp dport 7667 numgen random mod 100 "<" "$KIJI_LOSS" drop
   fi
-  common="--key-file $KIJI_WORK/key --json --seconds 60 --out"
-  "$KIJI_BIN" peer --host --stop-step 300 --name host $common "$KIJI_WORK/host.glb" > "$KIJI_WORK/host.json" 2> "$KIJI_WORK/host.err" &
+  common="--key-file $KIJI_WORK/key --json --seconds 5 --timeout 60 --out"
+  "$KIJI_BIN" peer --host --name host $common "$KIJI_WORK/host.glb" > "$KIJI_WORK/host.json" 2> "$KIJI_WORK/host.err" &
   sleep 0.3
   "$KIJI_BIN" peer --name viewer $common "$KIJI_WORK/viewer.glb" > "$KIJI_WORK/viewer.json" 2> "$KIJI_WORK/viewer.err" &
   sleep 0.3

@@ -11,6 +11,7 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <utility>
 
 namespace kiji {
 
@@ -34,7 +35,7 @@ class PeerRunner {
 
   // Runs f(peer) under the session's lock, for reading the peer's state or calling its methods.
   template <class F>
-  decltype(auto) with_peer(F&& f) {
+  auto with_peer(F&& f) -> decltype(f(std::declval<Peer&>())) {
     std::lock_guard<std::recursive_mutex> lock(session_.mutex());
     return f(static_cast<Peer&>(*peer_));
   }

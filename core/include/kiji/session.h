@@ -100,7 +100,11 @@ class Session {
   bool stroke_active(UserId user = 0) const { return active_.count(user) > 0; }
   // Users with a stroke in progress.
   std::vector<UserId> active_users() const;
+  // The tool of a user's stroke in progress, as applied ("" if none).
   const std::string& active_tool(UserId user = 0) const;
+  // The same as its user sees it: while the session is shared, a stroke begun here is in progress
+  // from its begin, before its turn to be applied comes.
+  const std::string& stroke_tool(UserId user = 0) const;
   // The tool instance a user's strokes use for an id (created on first use).
   Tool& tool(const std::string& id, UserId user = 0);
 
@@ -187,6 +191,8 @@ class Session {
   OperationGate gate_;
   std::string last_tool_error_;
   const void* gate_owner_ = nullptr;
+  // While shared: the strokes this session's users began and have not ended, applied or not yet.
+  std::map<UserId, std::string> proposed_;
   int next_listener_ = 0;
   mutable std::recursive_mutex mutex_;
 };

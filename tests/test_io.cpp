@@ -2,11 +2,13 @@
 #include "kiji/body.h"
 #include "kiji/error.h"
 #include "test_errors.h"
+#include "test_png.h"
 #include "kiji/io.h"
 #include "kiji/pattern.h"
 #include "kiji/render.h"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <filesystem>
 #include <fstream>
@@ -273,4 +275,50 @@ TEST(GarmentFileErrors, MissingEmptyAndBrokenFiles) {
 TEST(GarmentFileErrors, EmptyGarmentIsNotExported) {
   Garment g;
   EXPECT_NE(input_error([&] { export_garment(g, tmp_path("nothing.glb")); }).find("no faces"), std::string::npos);
+}
+
+TEST(GarmentFileErrors, AFaceThatNamesAVertexTheFileDoesNotHaveIsRefused) {
+  // Three vertices, and a face that names a fourth (or, counted from the end, one before the first).
+  for (const char* face : {"f 1 2 4", "f 1 2 99999", "f -1 -2 -4"}) {
+    SCOPED_TRACE(face);
+    const std::string path = tmp_path("bad_index.obj");
+    std::ofstream(path) << "v 0 0 0\nv 1 0 0\nv 0 1 0\n" << face << "\n";
+    const std::string msg = input_error([&] { import_garment(path); });
+    EXPECT_NE(msg.find(path), std::string::npos) << msg;
+    EXPECT_NE(msg.find("vertex"), std::string::npos) << msg;
+  }
+}
+
+TEST(GarmentFileErrors, AnEmbeddedTextureDeclaringAHugeImageIsRefused) {
+  // An exported .glb whose embedded PNG is rewritten to declare another size: the import refuses
+  // it before allocating its pixels, and says what the limit is.
+  Garment g = seamed_garment();
+  g.texture() = test_texture();
+  const std::string path = tmp_path("huge_texture.glb");
+  export_garment(g, path);
+  const std::string original = slurp(path);
+  const std::size_t png = original.find("\x89PNG");
+  ASSERT_NE(png, std::string::npos);
+  for (std::uint32_t side : {30000u, 8192u}) {
+    std::string bytes = original;
+    ASSERT_TRUE(test::declare_png_size(bytes, png, side, side));
+    std::ofstream(path, std::ios::binary) << bytes;
+    const std::string msg = input_error([&] { import_garment(path); });
+    EXPECT_NE(msg.find("its texture '*0' is a broken PNG"), std::string::npos) << msg;
+    EXPECT_NE(msg.find(side > 16384 ? "is larger than Kiji reads (at most 16384 pixels a side"
+                                    : "more than a PNG file of its size can hold"),
+              std::string::npos)
+        << msg;
+  }
+}
+
+TEST(GarmentFileErrors, ATextureBesideAnObjThatIsNotARegularFileIsRefusedWithoutBlocking) {
+  Garment g = seamed_garment();
+  g.texture() = test_texture();
+  const std::string path = tmp_path("fifo_texture.obj"), png = tmp_path("fifo_texture.png");
+  export_garment(g, path);
+  std::filesystem::remove(png);
+  ASSERT_EQ(mkfifo(png.c_str(), 0600), 0);  // opening it for reading would wait for a writer
+  const std::string msg = input_error([&] { import_garment(path); });
+  EXPECT_NE(msg.find("cannot be read from '" + png + "' (it is not a regular file)"), std::string::npos) << msg;
 }

@@ -176,7 +176,8 @@ Texture read_texture(const aiScene* scene, const aiMaterial* mat, const std::str
   Texture t;
   std::string error;
   if (const aiTexture* emb = scene->GetEmbeddedTexture(ref.C_Str())) {
-    if (emb->mHeight == 0) {
+    if (!emb->pcData) throw InputError(where + " is embedded without data; export the garment again");
+    if (emb->mHeight == 0) {  // compressed: mWidth bytes of an image file
       if (!detail::decode_png(reinterpret_cast<const std::uint8_t*>(emb->pcData), emb->mWidth, true, t.width,
                               t.height, t.rgba, error)) {
         if (error.rfind("not a PNG", 0) == 0) return {};
@@ -184,6 +185,9 @@ Texture read_texture(const aiScene* scene, const aiMaterial* mat, const std::str
       }
       return t;
     }
+    // Raw texels, mWidth x mHeight of them: bounded as a PNG's size is, before allocating.
+    if (const std::string problem = detail::image_size_problem(emb->mWidth, emb->mHeight); !problem.empty())
+      throw InputError(where + " is refused: its " + problem + "; export the garment with a smaller texture");
     t.width = static_cast<int>(emb->mWidth);
     t.height = static_cast<int>(emb->mHeight);
     t.rgba.resize(static_cast<std::size_t>(t.width) * t.height * 4);
@@ -201,8 +205,9 @@ Texture read_texture(const aiScene* scene, const aiMaterial* mat, const std::str
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
   if (ext != ".png") return {};
   std::vector<std::uint8_t> bytes;
-  if (!detail::read_file(file.string(), bytes))
-    throw InputError(where + " cannot be read from '" + file.string() + "'; keep the PNG beside the model");
+  if (!detail::read_file(file.string(), detail::kMaxPngFileBytes, bytes, error))
+    throw InputError(where + " cannot be read from '" + file.string() + "' (" + error +
+                     "); keep the PNG beside the model");
   if (!detail::decode_png(bytes.data(), bytes.size(), true, t.width, t.height, t.rgba, error))
     throw InputError(where + " is not a readable PNG (" + error + "); export the garment again");
   return t;
@@ -319,13 +324,21 @@ Garment import_garment(const std::string& path, const Material& material) {
     }
     for (unsigned f = 0; f < am->mNumFaces; ++f) {
       const aiFace& face = am->mFaces[f];
-      if (face.mNumIndices != 3) continue;
+      if (face.mNumIndices != 3 || !face.mIndices) continue;
       std::array<Corner, 3> tri;
       for (int k = 0; k < 3; ++k) {
+        // The importer's own checks differ by format and version: every index is checked here.
         const unsigned i = face.mIndices[k];
+        if (i >= am->mNumVertices)
+          throw InputError("cannot import garment '" + path + "': face " + std::to_string(f + 1) + " of mesh '" +
+                           am->mName.C_Str() + "' refers to vertex " + std::to_string(i + 1) + ", but the mesh has " +
+                           std::to_string(am->mNumVertices) + " vertices; repair the file");
         tri[k].vertex = vid[i];
         tri[k].uv = am->mTextureCoords[0] ? Vec2(am->mTextureCoords[0][i].x, am->mTextureCoords[0][i].y)
                                           : Vec2(points[vid[i]].x(), points[vid[i]].y());
+        if (!all_finite(tri[k].uv))
+          throw InputError("cannot import garment '" + path + "': vertex " + std::to_string(i + 1) +
+                           " has a texture coordinate that is not a finite number; repair the file");
       }
       if (tri[0].vertex == tri[1].vertex || tri[1].vertex == tri[2].vertex || tri[0].vertex == tri[2].vertex)
         continue;  // collapsed by the weld: no area

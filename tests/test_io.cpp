@@ -316,9 +316,23 @@ TEST(GarmentFileErrors, ATextureBesideAnObjThatIsNotARegularFileIsRefusedWithout
   Garment g = seamed_garment();
   g.texture() = test_texture();
   const std::string path = tmp_path("fifo_texture.obj"), png = tmp_path("fifo_texture.png");
+  std::filesystem::remove(png);
   export_garment(g, path);
   std::filesystem::remove(png);
   ASSERT_EQ(mkfifo(png.c_str(), 0600), 0);  // opening it for reading would wait for a writer
   const std::string msg = input_error([&] { import_garment(path); });
   EXPECT_NE(msg.find("cannot be read from '" + png + "' (it is not a regular file)"), std::string::npos) << msg;
+  // And writing into it would wait for a reader: the export refuses it too, as it does a FIFO in
+  // the garment file's own place.
+  const std::string again = input_error([&] { export_garment(g, path); });
+  EXPECT_NE(again.find("its texture '" + png + "' cannot be written: it exists and is not a regular file"),
+            std::string::npos)
+      << again;
+  const std::string fifo_glb = tmp_path("fifo_garment.glb");
+  std::filesystem::remove(fifo_glb);
+  ASSERT_EQ(mkfifo(fifo_glb.c_str(), 0600), 0);
+  EXPECT_NE(input_error([&] { export_garment(g, fifo_glb); }).find("it exists and is not a regular file"),
+            std::string::npos);
+  std::filesystem::remove(png);
+  std::filesystem::remove(fifo_glb);
 }

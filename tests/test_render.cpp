@@ -377,6 +377,12 @@ TEST(PngErrors, AFileThatIsNotARegularFileIsRefusedWithoutBlocking) {
   std::filesystem::remove(fifo);
   ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
   EXPECT_NE(test::input_error([&] { read_png(fifo); }).find("it is not a regular file"), std::string::npos);
+  Image img;
+  img.width = img.height = 2;
+  img.rgba.assign(16, 0);
+  EXPECT_NE(test::input_error([&] { write_png(img, fifo); }).find("it exists and is not a regular file"),
+            std::string::npos);
+  std::filesystem::remove(fifo);
 }
 
 TEST(PngErrors, MissingFileAndUnwritablePath) {

@@ -159,6 +159,10 @@ void check_writable(const std::string& path, const std::string& what) {
   std::error_code ec;
   if (fs::is_directory(path, ec))
     throw InputError("cannot export '" + path + "': it is a directory; give a file name ending in " + what);
+  // Opening a FIFO to write waits for a reader: only a new or a regular file is written.
+  if (fs::exists(path, ec) && !fs::is_regular_file(path, ec))
+    throw InputError("cannot export '" + path + "': it exists and is not a regular file (a FIFO or a device); "
+                     "give a file name ending in " + what);
   std::ofstream probe(path, std::ios::binary | std::ios::app);
   if (!probe)
     throw InputError("cannot export '" + path + "': the file cannot be written; check that its folder exists "
@@ -248,9 +252,10 @@ void export_garment(const Garment& garment, const std::string& path) {
     const std::string png_name = fpath.stem().string() + ".png";
     if (textured) {
       const fs::path png_path = fpath.parent_path() / png_name;
-      if (!detail::write_file(png_path.string(), texture_png(garment, path)))
+      std::string error;
+      if (!detail::write_file(png_path.string(), texture_png(garment, path), error))
         throw InputError("cannot export '" + path + "': its texture '" + png_path.string() +
-                         "' cannot be written; check the folder is writable");
+                         "' cannot be written: " + error);
     }
     scene = build_scene(garment, textured ? png_name : "");
   }

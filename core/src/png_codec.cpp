@@ -114,11 +114,20 @@ bool read_file(const std::string& path, std::uint64_t max_bytes, std::vector<std
   return true;
 }
 
-bool write_file(const std::string& path, const std::vector<std::uint8_t>& data) {
+bool write_file(const std::string& path, const std::vector<std::uint8_t>& data, std::string& error) {
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec)) {
+    error = "it exists and is not a regular file (a folder, a FIFO or a device); give the path of a file";
+    return false;
+  }
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) return false;
+  if (!out) {
+    error = "the file cannot be created; check that the folder exists and is writable";
+    return false;
+  }
   out.write(reinterpret_cast<const char*>(data.data()), static_cast<std::streamsize>(data.size()));
   out.close();
+  if (!out) error = "writing it failed; check the disk has room";
   return static_cast<bool>(out);
 }
 
@@ -134,9 +143,7 @@ void write_png(const Image& image, const std::string& path) {
   std::string error;
   if (!detail::encode_png(image.width, image.height, image.rgba.data(), false, bytes, error))
     throw InputError("cannot write PNG '" + path + "': " + error);
-  if (!detail::write_file(path, bytes))
-    throw InputError("cannot write PNG '" + path + "': the file cannot be created; check that the folder "
-                     "exists and is writable");
+  if (!detail::write_file(path, bytes, error)) throw InputError("cannot write PNG '" + path + "': " + error);
 }
 
 Image read_png(const std::string& path) {

@@ -33,6 +33,7 @@ constexpr std::uint64_t kMaxPngFileBytes = std::uint64_t(512) << 20;
 // Whole files, read or written in one go. read_file reads only a regular file of at most
 // `max_bytes` (a FIFO would block, a device never end); otherwise it says why in `error`.
 bool read_file(const std::string& path, std::uint64_t max_bytes, std::vector<std::uint8_t>& out, std::string& error);
-bool write_file(const std::string& path, const std::vector<std::uint8_t>& data);
+// write_file writes only a new or a regular file (opening a FIFO to write waits for a reader).
+bool write_file(const std::string& path, const std::vector<std::uint8_t>& data, std::string& error);
 
 }  // namespace kiji::detail

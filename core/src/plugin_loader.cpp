@@ -359,7 +359,7 @@ PluginReport ToolRegistry::load_plugin(const std::string& path) {
   return report;
 }
 
-void ToolRegistry::add(const std::string& id, ToolFactory factory) {
+void ToolRegistry::add(const std::string& id, ToolFactory factory, std::string origin) {
   if (tools_.count(id)) throw InputError("tool id '" + id + "' is already taken by " + tools_.at(id).origin);
   const std::unique_ptr<Tool> probe = factory ? factory() : nullptr;
   if (!probe) throw InputError("tool '" + id + "' registered with a factory that makes no tool");
@@ -367,10 +367,12 @@ void ToolRegistry::add(const std::string& id, ToolFactory factory) {
   e.info = probe->info();
   if (e.info.id != id) throw InputError("tool registered as '" + id + "' says its id is '" + e.info.id + "'");
   check_tool_info(e.info);
-  e.origin = "built in";
+  e.origin = std::move(origin);
   e.factory = std::move(factory);
   tools_.emplace(id, std::move(e));
 }
+
+bool ToolRegistry::remove(const std::string& id) { return tools_.erase(id) > 0; }
 
 bool ToolRegistry::has(const std::string& id) const { return tools_.count(id) > 0; }
 

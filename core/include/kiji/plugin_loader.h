@@ -42,8 +42,13 @@ class ToolRegistry {
   // Whatever the files hold (a library that is not one, that returns no tool, that throws anything
   // while making or describing it), the answer is a report, never a crash or an exception.
   PluginReport load_plugin(const std::string& path);
-  // Registers a tool built into the host (tests, the app). Throws InputError if the id is taken.
-  void add(const std::string& id, ToolFactory factory);
+  // Registers a tool built into the host (tests, the app, a tool written in Python); `origin` is
+  // what origin() says of it. Throws InputError if the id is taken.
+  void add(const std::string& id, ToolFactory factory, std::string origin = "built in");
+
+  // Forgets a tool (one a script registers again after changing it). Sessions keep the instances
+  // they already made. False if there was no tool of that id.
+  bool remove(const std::string& id);
 
   bool has(const std::string& id) const;
   std::vector<std::string> ids() const;  // sorted

@@ -386,6 +386,17 @@ TEST(BodyImportErrors, CorruptFileOfKnownFormat) {
   EXPECT_NE(msg.find("assimp cannot read it"), std::string::npos) << msg;
 }
 
+TEST(BodyImportErrors, APlyHeaderThatNeverEndsIsRefusedNotReadForEver) {
+  // assimp 5.2 looks for the end of such a header for ever; found by fuzz_body.
+  const std::string path = tmp_file("no_end.ply",
+                                    "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                    "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                                    "end_h%ader\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+  const std::string msg = input_error([&] { Body::load(path); });
+  EXPECT_NE(msg.find(path), std::string::npos) << msg;
+  EXPECT_NE(msg.find("its PLY header has no end_header line"), std::string::npos) << msg;
+}
+
 TEST(BodyImportErrors, LinesOnlyAndPointsOnlyHaveNoTriangles) {
   for (const char* f : {"/OBJ/testline.obj", "/OBJ/testpoints.obj"}) {
     const std::string msg = input_error([&] { Body::load(models + f); });

@@ -2,6 +2,7 @@
 #include "kiji/io.h"
 
 #include "kiji/error.h"
+#include "import_checks.h"
 #include "png_codec.h"
 
 #include <assimp/Exporter.hpp>
@@ -285,6 +286,8 @@ Garment import_garment(const std::string& path, const Material& material) {
     throw InputError("cannot import garment '" + path + "': it is not a regular file");
   if (fs::file_size(path, ec) == 0)
     throw InputError("cannot import garment '" + path + "': the file is empty; export the garment again");
+
+  detail::check_before_assimp(path, "cannot import garment '" + path + "'");
 
   Assimp::Importer importer;
   const aiScene* scene = nullptr;

@@ -302,7 +302,7 @@ TEST(Tear, EdgesTearExactlyWhereTheyAreStretchedPastTheirThreshold) {
   // a threshold 2 % above its length (a stronger thread): there nothing may tear.
   auto owner = flat_session(0.4, 0.4, 21, 21, Material::tissue());
   Session& s = *owner;
-  s.simulating = false;
+  s.set_simulating(false);
   Garment& g = s.garment(0);
   const Vertex weak(21 * 10 + 4), strong(21 * 10 + 16);  // each with eight neighbours
   for (Vertex v : {weak, strong}) g.set_position(v, g.position(v) + Vec3(0.9 * 0.02, 0.9 * 0.02, 0));

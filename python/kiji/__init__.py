@@ -22,6 +22,7 @@ from ._kiji import (
     Body,
     Camera,
     ClothMeasures,
+    DrapeOptions,
     Error,
     Garment,
     InputError,
@@ -36,6 +37,7 @@ from ._kiji import (
     ToolInfo,
     ToolRegistry,
     abi_tag,
+    drape,
     export_garment,
     load_garment,
     load_journal,
@@ -45,6 +47,7 @@ from ._kiji import (
     render,
     save_journal,
     version,
+    visible_points,
     write_png,
 )
 from ._session import (
@@ -62,10 +65,10 @@ from ._kiji import rectangle
 __version__ = version()
 
 __all__ = [
-    "Body", "Camera", "ClothMeasures", "Error", "Garment", "InputError", "JournalStroke", "Material",
+    "Body", "Camera", "ClothMeasures", "DrapeOptions", "Error", "Garment", "InputError", "JournalStroke", "Material",
     "ParamSpec", "Session", "SolverParams", "StepReport", "SurfaceHit", "TopologyError", "ToolEvent", "ToolInfo",
-    "ToolRegistry", "JOURNAL_FILE_VERSION", "PACKAGE_PLUGIN_FOLDER", "abi_tag", "export_garment",
+    "ToolRegistry", "JOURNAL_FILE_VERSION", "PACKAGE_PLUGIN_FOLDER", "abi_tag", "drape", "export_garment",
     "load_garment", "load_journal", "load_plugins", "panel", "place_over_body", "plugin_folders",
     "plugin_reports", "read_png", "rectangle", "registry", "render", "save_journal", "tool_info", "tools",
-    "version", "write_png",
+    "version", "visible_points", "write_png",
 ]

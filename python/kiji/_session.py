@@ -170,6 +170,15 @@ def _make_tool_method(info: _kiji.ToolInfo) -> Callable[..., np.ndarray]:
     return method
 
 
+def _copy_params(params: _kiji.SolverParams) -> _kiji.SolverParams:
+    """A copy of solver parameters (a session's are its own, changed only through the session)."""
+    copy = _kiji.SolverParams()
+    for name in dir(params):
+        if not name.startswith("_") and not callable(getattr(params, name)):
+            setattr(copy, name, getattr(params, name))
+    return copy
+
+
 class Session(_kiji.Session):
     """A design session: garments, a body, the solver, the tools and the journal.
 
@@ -227,6 +236,25 @@ class Session(_kiji.Session):
             if name in ids:
                 return _make_tool_method(self.tool_info(name)).__get__(self)
         raise AttributeError(f"'{type(self).__name__}' object has no attribute '{name}'")
+
+    def drape(self, seconds: float = 3.0, *, place: bool = True, clearance: float = 0.02,
+              substeps: Optional[int] = None, progress: Optional[Callable[[float], Any]] = None) -> None:
+        """Lays every garment over the body (place=True, `clearance` metres above it) and lets it fall
+        and settle for `seconds`, as `kiji drape` does: at the drape's steps a second and substeps
+        (kiji.DrapeOptions(): 60 and 40, or `substeps`), with the session's other solver settings.
+        The session's own steps a second and substeps (the interactive ones: 10 unless changed) are
+        back when it returns. progress(fraction) as for simulate(); Ctrl-C raises KeyboardInterrupt."""
+        options = _kiji.DrapeOptions()
+        interactive, frame_rate = _copy_params(self.solver_params), self.frame_rate
+        params = _copy_params(interactive)
+        params.substeps = options.solver.substeps if substeps is None else substeps
+        self.solver_params = params  # checked here: a bad substeps changes nothing
+        try:
+            self.frame_rate = options.frame_rate
+            super().drape(seconds, place=place, clearance=clearance, progress=progress)
+        finally:
+            self.solver_params = interactive
+            self.frame_rate = frame_rate
 
     def export(self, path: str | os.PathLike, garment: int = 0) -> None:
         """Writes a garment as .glb (with uv and the painted texture) or .obj (+ .mtl + .png)."""

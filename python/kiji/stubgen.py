@@ -163,13 +163,13 @@ def generate() -> str:
     from kiji import _kiji, _session
 
     out = [HEADER]
-    classes = ["Material", "SolverParams", "ClothMeasures", "StepReport", "Body", "Camera", "Garment", "ParamSpec", "ToolInfo",
-               "ToolRegistry", "ToolEvent", "SurfaceHit", "JournalStroke"]
+    classes = ["Material", "SolverParams", "DrapeOptions", "ClothMeasures", "StepReport", "Body", "Camera", "Garment",
+               "ParamSpec", "ToolInfo", "ToolRegistry", "ToolEvent", "SurfaceHit", "JournalStroke"]
     for name in classes:
         out += _class_stub(name, getattr(_kiji, name))
         out.append("")
-    for name in ["version", "abi_tag", "rectangle", "panel", "place_over_body", "load_garment", "export_garment",
-                 "render", "write_png", "read_png", "load_journal", "save_journal"]:
+    for name in ["version", "abi_tag", "rectangle", "panel", "place_over_body", "drape", "load_garment",
+                 "export_garment", "render", "visible_points", "write_png", "read_png", "load_journal", "save_journal"]:
         out += _defs(name, getattr(_kiji, name).__doc__, "", method=False)
     out.append("")
     for name in ["plugin_folders", "registry", "plugin_reports", "tools", "tool_info", "load_plugins"]:

@@ -1,0 +1,58 @@
+"""One drape: Session.drape drapes a garment as `kiji drape` (kiji.drape) does, step for step, and
+gives the session back its interactive settings afterwards."""
+import numpy as np
+import pytest
+
+import kiji
+
+
+def _cloth():
+    return kiji.rectangle(0.8, 0.6, spacing=0.03, material=kiji.Material("cotton"))
+
+
+def test_session_drape_is_the_drape_of_kiji_drape():
+    body = kiji.Body.default()
+    options = kiji.DrapeOptions()
+    options.seconds = 1.0
+    assert options.solver.substeps == 40 and options.frame_rate == 60
+    alone = _cloth()
+    kiji.place_over_body(alone, body)
+    measures = kiji.drape(alone, body, options)
+
+    s = kiji.Session(body=body)
+    g = s.add_garment(_cloth())
+    s.drape(seconds=1.0)
+    assert np.array_equal(g.positions, alone.positions), "the same drape, step for step"
+    assert s.measure().max_strain == measures.max_strain
+    # The session's own settings are back: the interactive ones.
+    assert s.solver_params.substeps == 10 and s.frame_rate == 60
+    assert s.time == pytest.approx(1.0)
+
+
+def test_the_drape_settings_are_what_keeps_the_cloth_unstretched():
+    # The same cloth draped at the interactive 10 substeps lands otherwise, and stretches more.
+    body = kiji.Body.default()
+    results = {}
+    for substeps in (None, 10):
+        s = kiji.Session(body=body)
+        g = s.add_garment(_cloth())
+        s.drape(seconds=1.0, substeps=substeps)
+        results[substeps] = (g.positions, s.measure().max_strain)
+    assert not np.array_equal(results[None][0], results[10][0])
+    assert results[None][1] < 0.07
+    assert results[None][1] < results[10][1]
+
+
+def test_a_bad_drape_changes_nothing():
+    s = kiji.Session(body=kiji.Body.default())
+    g = s.add_garment(_cloth())
+    before = g.positions
+    params = s.solver_params
+    params.substeps = 20
+    s.solver_params = params
+    with pytest.raises(kiji.InputError, match="substeps"):
+        s.drape(seconds=1.0, substeps=0)
+    assert np.array_equal(g.positions, before) and s.time == 0
+    assert s.solver_params.substeps == 20
+    with pytest.raises(kiji.InputError, match="body"):
+        kiji.Session().drape(seconds=1.0)

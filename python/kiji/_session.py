@@ -170,15 +170,6 @@ def _make_tool_method(info: _kiji.ToolInfo) -> Callable[..., np.ndarray]:
     return method
 
 
-def _copy_params(params: _kiji.SolverParams) -> _kiji.SolverParams:
-    """A copy of solver parameters (a session's are its own, changed only through the session)."""
-    copy = _kiji.SolverParams()
-    for name in dir(params):
-        if not name.startswith("_") and not callable(getattr(params, name)):
-            setattr(copy, name, getattr(params, name))
-    return copy
-
-
 class Session(_kiji.Session):
     """A design session: garments, a body, the solver, the tools and the journal.
 
@@ -189,14 +180,30 @@ class Session(_kiji.Session):
     """
 
     def __init__(self, body: Optional[_kiji.Body] = None, *, registry: Optional[_kiji.ToolRegistry] = None,
-                 solver: Optional[_kiji.SolverParams] = None, frame_rate: Optional[float] = None) -> None:
-        super().__init__(registry if registry is not None else _registry)
+                 solver: Optional[_kiji.SolverParams] = None, frame_rate: Optional[float] = None,
+                 autosave: Optional[str | os.PathLike] = None, _core: Optional[_kiji.Session] = None) -> None:
+        """A new session (or, with _core, a handle on an existing one). With autosave=PATH every
+        operation is appended to that session file as it is applied, flushed before the call that made
+        it returns; kiji.recover(PATH) rebuilds the session after a crash. A PATH that already holds a
+        session is refused rather than overwritten."""
+        if _core is not None:
+            super().__init__(_core)
+        else:
+            super().__init__(registry if registry is not None else _registry)
+        self._autosave = None
+        if autosave is not None:
+            self._autosave = self._start_autosave(os.fspath(autosave))
         if body is not None:
             self.body = body
         if solver is not None:
             self.solver_params = solver
         if frame_rate is not None:
             self.frame_rate = frame_rate
+
+    @property
+    def autosave(self) -> Optional[str]:
+        """The session file every operation is appended to, or None."""
+        return self._autosave.path if self._autosave is not None else None
 
     def tools(self) -> list[_kiji.ToolInfo]:
         """The tools of this session, with their declared parameters."""
@@ -237,25 +244,6 @@ class Session(_kiji.Session):
                 return _make_tool_method(self.tool_info(name)).__get__(self)
         raise AttributeError(f"'{type(self).__name__}' object has no attribute '{name}'")
 
-    def drape(self, seconds: float = 3.0, *, place: bool = True, clearance: float = 0.02,
-              substeps: Optional[int] = None, progress: Optional[Callable[[float], Any]] = None) -> None:
-        """Lays every garment over the body (place=True, `clearance` metres above it) and lets it fall
-        and settle for `seconds`, as `kiji drape` does: at the drape's steps a second and substeps
-        (kiji.DrapeOptions(): 60 and 40, or `substeps`), with the session's other solver settings.
-        The session's own steps a second and substeps (the interactive ones: 10 unless changed) are
-        back when it returns. progress(fraction) as for simulate(); Ctrl-C raises KeyboardInterrupt."""
-        options = _kiji.DrapeOptions()
-        interactive, frame_rate = _copy_params(self.solver_params), self.frame_rate
-        params = _copy_params(interactive)
-        params.substeps = options.solver.substeps if substeps is None else substeps
-        self.solver_params = params  # checked here: a bad substeps changes nothing
-        try:
-            self.frame_rate = options.frame_rate
-            super().drape(seconds, place=place, clearance=clearance, progress=progress)
-        finally:
-            self.solver_params = interactive
-            self.frame_rate = frame_rate
-
     def export(self, path: str | os.PathLike, garment: int = 0) -> None:
         """Writes a garment as .glb (with uv and the painted texture) or .obj (+ .mtl + .png)."""
         self.garment(garment).export(os.fspath(path))
@@ -269,6 +257,26 @@ class Session(_kiji.Session):
 
 
 Session.__module__ = "kiji"
+
+
+def recover(path: str | os.PathLike, *, registry: Optional[_kiji.ToolRegistry] = None,
+            keep_saving: bool = True) -> Session:
+    """Rebuilds a session from its session file (autosave): every operation whose call had returned,
+    strokes the crash left unfinished cancelled. With keep_saving the session goes on autosaving into
+    the same file (a damaged end, from a crash while writing, is cut off first). The session's
+    `recovery` attribute says what was found: operations, damage, cancelled_strokes."""
+    core, autosave, report = _kiji._recover(os.fspath(path), registry if registry is not None else _registry,
+                                            keep_saving)
+    s = Session(_core=core)
+    s._autosave = autosave
+    s.recovery = report
+    return s
+
+
+def load(path: str | os.PathLike, *, registry: Optional[_kiji.ToolRegistry] = None) -> Session:
+    """A new session from a session file (Session.save), replayed operation by operation."""
+    core = _kiji._load_session(os.fspath(path), registry if registry is not None else _registry)
+    return Session(_core=core)
 _BUILT_IN_ATTRIBUTES = set(dir(Session))
 _installed: set[str] = set()
 

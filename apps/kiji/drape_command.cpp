@@ -120,7 +120,8 @@ int drape_command(const std::vector<std::string>& argv) {
         {"material", material.name},
         {"vertices", garment.mesh().number_of_vertices()},
         {"faces", garment.mesh().number_of_faces()},
-        {"seconds_simulated", number(result.seconds_simulated)},
+        // The sum of the steps' dt, rounded to the microsecond: 30 steps of 1/60 s are 0.5 s, not 0.49999999999999994.
+        {"seconds_simulated", number(std::round(result.seconds_simulated * 1e6) / 1e6)},
         {"steps", result.steps},
         {"substeps", options.solver.substeps},
         {"wall_seconds", number(result.wall_seconds)},
@@ -133,7 +134,7 @@ int drape_command(const std::vector<std::string>& argv) {
         {"contacts", m.contacts},
         {"out", out},
         {"picture", picture.empty() ? nlohmann::json(nullptr) : nlohmann::json(picture)}};
-    std::puts(j.dump().c_str());
+    std::puts(j.dump(2).c_str());
   } else {
     std::printf("draped %zu vertices / %zu faces of %s on %s (%.2f m tall)\n",
                 garment.mesh().number_of_vertices(), garment.mesh().number_of_faces(), material.name.c_str(),

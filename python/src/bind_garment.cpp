@@ -369,7 +369,7 @@ void bind_garment(py::module_& m) {
   c.def("translate", [](Ref& r, py::handle offset) {
     const Vec3 d = to_vec3(offset, "offset");
     r.edit([&](Garment& g) { g.transform(Eigen::Affine3d(Eigen::Translation3d(d))); });
-  }, py::arg("offset"));
+  }, py::arg("offset"), "Moves every vertex by an offset (3,), metres (the rest shape is unchanged).");
   c.def("copy", [](const Ref& r) {
     auto lock = r.guard();
     return std::make_shared<Ref>(r.get()); }, "A separate copy, in no session.");
@@ -423,21 +423,6 @@ void bind_garment(py::module_& m) {
         py::arg("garment"), py::arg("body"), py::arg("clearance") = 0.02,
         "Lays a flat pattern horizontally over the body (x along the shoulders, y front to back),\n"
         "clearance metres above the highest point under it.");
-  py::class_<DrapeOptions>(m, "DrapeOptions",
-                           "How a drape runs (kiji drape, Session.drape, kiji.drape): simulated seconds, steps a\n"
-                           "second and the solver's settings (40 substeps a step where a session's default is 10).")
-      .def(py::init<>())
-      .def_readwrite("seconds", &DrapeOptions::seconds)
-      .def_readwrite("frame_rate", &DrapeOptions::frame_rate)
-      .def_readwrite("solver", &DrapeOptions::solver);
-  m.def("drape",
-        [](Ref& r, const Body& body, std::optional<DrapeOptions> options) {
-          py::gil_scoped_release nogil;
-          return drape(r.get(), body, options.value_or(DrapeOptions{})).measures;
-        },
-        py::arg("garment"), py::arg("body"), py::arg("options") = py::none(),
-        "Lets a garment (placed over the body: place_over_body) fall and settle on the body, as kiji drape\n"
-        "does; returns its ClothMeasures at the end.");
   m.def("load_garment",
         [](const std::string& path, std::optional<Material> material) {
           Garment g;

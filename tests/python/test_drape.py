@@ -12,12 +12,11 @@ def _cloth():
 
 def test_session_drape_is_the_drape_of_kiji_drape():
     body = kiji.Body.default()
-    options = kiji.DrapeOptions()
-    options.seconds = 1.0
-    assert options.solver.substeps == 40 and options.frame_rate == 60
     alone = _cloth()
     kiji.place_over_body(alone, body)
-    measures = kiji.drape(alone, body, options)
+    result = kiji.drape(alone, body, seconds=1.0)
+    assert result.steps == 60
+    measures = result.measures
 
     s = kiji.Session(body=body)
     g = s.add_garment(_cloth())

@@ -1,6 +1,7 @@
 // Body::load: any mesh file assimp reads, welded into one surface in metres with +Y up.
 #include "kiji/body.h"
 
+#include "import_checks.h"
 #include "kiji/error.h"
 
 #include <assimp/Importer.hpp>
@@ -354,6 +355,7 @@ std::string Body::default_path() { return "/usr/share/assimp/models/Collada/huma
 Body Body::load(const std::string& path, const BodyImportOptions& options) {
   check_options(path, options);
   check_file(path);
+  detail::check_before_assimp(path, "cannot load body '" + path + "'");
 
   Assimp::Importer importer;
   // Without normals, uvs and colours, Collada's seam-split corners become identical and weld.

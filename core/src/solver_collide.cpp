@@ -20,6 +20,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -717,7 +718,7 @@ void partition_self_pairs(SolverArrays& s) {
     bound[k - 1] = *at;
   }
   auto slab = [&](int v) {
-    return static_cast<int>(std::upper_bound(bound, bound + kSelfSlabs - 1, s.x[v][axis]) - bound);
+    return static_cast<int>(std::upper_bound(std::begin(bound), std::end(bound), s.x[v][axis]) - bound);
   };
   s.pair_slab.resize(np);
   int count[kSelfSlabs + 1] = {0};

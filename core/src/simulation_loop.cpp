@@ -102,9 +102,12 @@ void SimulationLoop::call(std::function<void(Session&)> work) {
   }
   auto done = std::make_shared<std::promise<void>>();
   std::future<void> result = done->get_future();
-  post([work = std::move(work), done](Session& s) {
+  post([this, work = std::move(work), done](Session& s) {
     try {
       work(s);
+      // The frame shows the work's result by the time the caller goes on.
+      edited_ = true;
+      publish(s);
       done->set_value();
     } catch (...) {
       done->set_exception(std::current_exception());
@@ -208,10 +211,12 @@ void SimulationLoop::tick() {
   }
   handle_device(s);
   // A paused session (Session::simulating) still steps: its clock goes on, its cloth stands.
-  try {
-    s.step();
-  } catch (...) {
-    report("simulation step: " + error_text(std::current_exception()));
+  if (stepping_.load()) {
+    try {
+      s.step();
+    } catch (...) {
+      report("simulation step: " + error_text(std::current_exception()));
+    }
   }
   publish(s);
 }

@@ -52,7 +52,8 @@ class SimulationLoop {
   // Session's own calls leave it as it was when they throw.
   void post(std::function<void(Session&)> work, std::string what = {});
   // Runs work on the simulation thread (or at once if the loop is not running) and waits for it;
-  // rethrows what it throws. Not from the simulation thread itself.
+  // rethrows what it throws. When it returns, frame() shows the work done. Not from the simulation
+  // thread itself.
   void call(std::function<void(Session&)> work);
   // From work running on the simulation thread: publish a frame now (a long drape shows its
   // progress), and whether stop() was asked for meanwhile (long work should end early).
@@ -69,6 +70,12 @@ class SimulationLoop {
   void set_tool(std::uint32_t button, const std::string& tool, const ParamSet& params);
   // Radius of the cloth around the pointer that the haptic loop gets each step, metres.
   void set_haptic_radius(double metres);
+
+  // Whether the loop steps the session at all (it still runs work and tools, and publishes). Off
+  // while an app sets its scene up, so that the clock starts at zero when the user (or a replayed
+  // journal) does. Pausing the cloth is the session's own setting (Session::simulating), not this.
+  void set_stepping(bool on) { stepping_.store(on); }
+  bool stepping() const { return stepping_.load(); }
 
   // The latest frame (never null once start() has returned).
   std::shared_ptr<const SceneFrame> frame() const;
@@ -97,6 +104,7 @@ class SimulationLoop {
   std::shared_ptr<Session> session_;
   double rate_hz_;
   std::atomic<bool> running_{false};
+  std::atomic<bool> stepping_{true};
   std::thread thread_;
   std::thread::id thread_id_;
 

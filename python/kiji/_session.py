@@ -180,8 +180,13 @@ class Session(_kiji.Session):
     """
 
     def __init__(self, body: Optional[_kiji.Body] = None, *, registry: Optional[_kiji.ToolRegistry] = None,
-                 solver: Optional[_kiji.SolverParams] = None, frame_rate: Optional[float] = None) -> None:
-        super().__init__(registry if registry is not None else _registry)
+                 solver: Optional[_kiji.SolverParams] = None, frame_rate: Optional[float] = None,
+                 session: Optional[_kiji.Session] = None) -> None:
+        # session=: a handle on an existing session (an app's own), with its tools, not a new one.
+        if session is not None:
+            super().__init__(session=session)
+        else:
+            super().__init__(registry if registry is not None else _registry)
         if body is not None:
             self.body = body
         if solver is not None:

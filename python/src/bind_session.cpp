@@ -279,6 +279,13 @@ void bind_session(py::module_& m) {
   py::class_<Session, SessionPtr> s(m, "Session");
   s.def(py::init([](std::shared_ptr<ToolRegistry> registry) { return std::make_shared<Session>(std::move(registry)); }),
         py::arg("registry") = nullptr);
+  // A second handle on a session that already exists (an app's live session, given to its embedded
+  // Python): both handles are the one C++ session.
+  s.def(py::init([](SessionPtr session) {
+          if (!session) throw py::type_error("Session(session=...): expected a kiji.Session");
+          return session;
+        }),
+        py::kw_only(), py::arg("session"));
   s.def("add_garment", [](const SessionPtr& self, std::shared_ptr<GarmentRef> g) {
     if (!g) throw py::type_error("add_garment: expected a kiji.Garment");
     Garment copy = g->get();

@@ -75,7 +75,7 @@ HapticOptions plain() {
 std::unique_ptr<Session> pinched(double stiffness) {
   auto s = std::make_unique<Session>(plugins());
   s->add_garment(make_rectangle(1.0, 1.0, 21, 21));
-  s->simulating = false;
+  s->set_simulating(false);
   ParamSet p = s->params_for("pinch", {{"stiffness", stiffness}});
   s->apply("pinch", at(Vec3(0.5, 0.5, 0.0), Phase::Begin), &p);
   return s;

@@ -191,7 +191,7 @@ TEST_F(StandIn, APinchFeltThroughTheServoLoopInTheVendorsOrder) {
   play("0 0 50 0 1\n10 0 50 0 1\n");
   auto s = std::make_unique<Session>(plugins());
   s->add_garment(make_rectangle(1.0, 1.0, 21, 21));
-  s->simulating = false;
+  s->set_simulating(false);
   ParamSet p = s->params_for("pinch", {{"stiffness", 10.0}});
   s->apply("pinch", at(Vec3(0.5, 0.5, 0.0), Phase::Begin), &p);
   {

@@ -1,5 +1,6 @@
 // The simulation thread of an interactive session: frames for the UI, strokes from a device, work
 // from other threads, and a session that stays whole when something fails.
+#include "kiji/journal_file.h"
 #include "kiji/pattern.h"
 #include "kiji/session.h"
 #include "kiji/simulation_loop.h"
@@ -163,7 +164,7 @@ TEST(SimulationLoop, ADevicesButtonsMakeAStrokeOfTheChosenTool) {
   auto s = hanging_cloth();
   {
     auto lock = std::lock_guard<std::recursive_mutex>(s->mutex());
-    s->simulating = false;  // the cloth stays where the pen finds it
+    s->set_simulating(false);  // the cloth stays where the pen finds it
   }
   // The pen presses on the cloth's middle at 0.1 s, pulls it 0.1 m up, lets go at 0.4 s.
   ScriptedDevice device([](double t) {
@@ -182,13 +183,15 @@ TEST(SimulationLoop, ADevicesButtonsMakeAStrokeOfTheChosenTool) {
   ASSERT_TRUE(wait_until([&] { return device.forces_received() > 600; }));
   loop.stop();
   haptics.stop();
-  ASSERT_EQ(s->journal().entries().size(), 1u);
-  const JournalEntry& stroke = s->journal().entries()[0];
+  const std::vector<JournalStroke> strokes = journal_strokes(s->journal());
+  ASSERT_EQ(strokes.size(), 1u);
+  const JournalStroke& stroke = strokes[0];
   EXPECT_EQ(stroke.tool, "pinch");
   EXPECT_GT(stroke.events.size(), 5u);
   EXPECT_EQ(stroke.events.front().phase, Phase::Begin);
   EXPECT_EQ(stroke.events.back().phase, Phase::End);
-  EXPECT_TRUE(stroke.events.front().hit.hit) << "the pen pressed on the cloth";
+  const JournalEntry& entry = s->journal().entries().back();
+  EXPECT_TRUE(entry.events.front().hit.hit) << "the pen pressed on the cloth";
   EXPECT_EQ(std::get<double>(stroke.params.at("stiffness")), 500.0) << "the panel's parameters";
 }
 
@@ -217,14 +220,14 @@ TEST(SimulationLoop, AToolThatFailsLeavesTheSessionAsItWasAndTheLoopRunning) {
   haptics.stop();
   EXPECT_NE(messages[0].find("'explode' stroke: the tool's own bug"), std::string::npos) << messages[0];
   EXPECT_FALSE(s->stroke_active());
-  EXPECT_TRUE(s->journal().entries().empty());
+  EXPECT_TRUE(journal_strokes(s->journal()).empty());
 }
 
 TEST(SimulationLoop, APausedSessionKeepsItsClothStill) {
   auto s = hanging_cloth();
   SimulationLoop loop(s, 60);
   loop.start();
-  loop.call([](Session& session) { session.simulating = false; });
+  loop.call([](Session& session) { session.set_simulating(false); });
   const auto a = loop.frame();
   ASSERT_TRUE(wait_until([&] { return loop.frame()->number > a->number + 5; }));
   const auto b = loop.frame();

@@ -182,7 +182,7 @@ void PythonWorker::rebind() {
     py::gil_scoped_acquire gil;
     py::object kiji = py::module_::import("kiji");
     py::object handle = py::cast(studio_.session());
-    locals_["session"] = kiji.attr("Session")(py::arg("session") = handle);
+    locals_["session"] = kiji.attr("Session")(py::arg("_core") = handle);
   } catch (const std::exception& e) {
     emit text(QString("`session` is not available: %1\n").arg(e.what()), true);
   }

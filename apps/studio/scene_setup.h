@@ -1,15 +1,12 @@
-// How a studio session's scene was set up (the body and its import options, each garment's pattern
-// and material, the drape before the first stroke), and the session file that keeps it with the
-// journal: opening one sets the scene up again and replays the strokes, which gives the same
-// garments, as the solver and the tools are deterministic.
+// Setting a scene up: garments made from a pattern and put where a user expects them (laid over the
+// body, or hanging at head height from two corners where there is none), and the drape. Each change
+// goes through the session's operations, so a saved session or journal replays it.
 #pragma once
 
 #include "kiji/body.h"
 #include "kiji/garment.h"
-#include "kiji/journal_file.h"
 
 #include <functional>
-#include <optional>
 #include <string>
 #include <vector>
 
@@ -19,11 +16,6 @@ class Session;
 
 namespace kiji::studio {
 
-struct BodySpec {
-  std::string path;
-  BodyImportOptions options;
-};
-
 struct GarmentSpec {
   enum class Kind { Rectangle, Panel };
   Kind kind = Kind::Rectangle;
@@ -31,8 +23,6 @@ struct GarmentSpec {
   std::vector<Vec2> outline;        // a panel's outline, metres
   double spacing = 0.02;            // vertex spacing (rectangle) or edge length (panel), metres
   std::string material = "cotton";  // a preset: Material::preset_names()
-  // Without a body the cloth hangs from its two top corners (it would fall forever otherwise);
-  // with one it is laid flat over it.
   // Throws InputError for a size, spacing or material a garment cannot be made of.
   Garment make() const;
   std::string describe() const;  // "rectangle 1 x 1.2 m, 0.02 m apart, cotton"
@@ -40,36 +30,18 @@ struct GarmentSpec {
   static GarmentSpec rectangle(const std::string& spec);
 };
 
-struct SceneSetup {
-  std::optional<BodySpec> body;
-  std::vector<GarmentSpec> garments;
-  double drape_seconds = 0;  // simulated after the garments were laid over the body, before any stroke
+// Adds a garment: laid flat over the body if the session has one, else hanging in front of the
+// origin at head height from its two top corners (it would fall forever otherwise). Its index.
+std::size_t add_garment(Session& session, const GarmentSpec& spec);
 
-  // Loads the body (outside any session: it takes seconds for a large file).
-  std::optional<Body> load_body() const;
-  // Puts a garment into the session: over the body if there is one, else hanging at head height
-  // from its top corners. Returns its index.
-  static std::size_t add(Session& session, const GarmentSpec& spec);
-  // The whole scene into an empty session: body, garments, drape. `progress(fraction)` may stop the
-  // drape early by returning false.
-  void build(Session& session, const std::optional<Body>& body,
-             const std::function<bool(double)>& progress = {}) const;
-};
+// Whether the session has had a stroke (before one, a new body re-lays the garments over it).
+bool has_strokes(const Session& session);
 
-// Simulates `seconds` with the drape's solver settings (more substeps), then puts the session's
-// own settings back.
+// Lays every garment flat over the session's body (a garment not yet touched, when a body comes).
+void lay_over_body(Session& session);
+
+// Simulates `seconds` with the drape's solver settings (more substeps), then puts the session's own
+// settings back. `progress(fraction)` may stop it early by returning false.
 void drape_session(Session& session, double seconds, const std::function<bool(double)>& progress = {});
-
-// A session file: NAME.kiji (JSON: the setup and the journal's file name) beside NAME.journal (the
-// strokes, a journal any Kiji session can replay) and NAME.glb (each garment as it is now; NAME-2.glb
-// for a second one, ...).
-struct SessionFile {
-  SceneSetup setup;
-  std::vector<JournalStroke> strokes;
-};
-// Writes the three; throws InputError if a file cannot be written.
-void save_session_file(const std::string& path, const SceneSetup& setup, const Session& session);
-// Throws InputError naming the file and the field for a file that is not a session, or a later version.
-SessionFile load_session_file(const std::string& path);
 
 }  // namespace kiji::studio

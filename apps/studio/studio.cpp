@@ -1,8 +1,9 @@
 #include "studio.h"
 
-#include "kiji/drape.h"
 #include "kiji/io.h"
+#include "kiji/journal_file.h"
 #include "kiji/session.h"
+#include "kiji/session_file.h"
 
 #include <QFileInfo>
 
@@ -46,13 +47,12 @@ void Studio::start_loop() {
   loop_->attach(haptics_.get());
 }
 
-void Studio::replace_session(std::shared_ptr<Session> session, SceneSetup setup) {
+void Studio::replace_session(std::shared_ptr<Session> session) {
   cancel_drape_ = true;
   loop_->attach(nullptr);  // the haptic loop lets go of the old session's tools
   loop_->stop();
   loop_.reset();
   session_ = std::move(session);
-  setup_ = std::move(setup);
   cancel_drape_ = false;
   start_loop();
   emit session_replaced();
@@ -60,16 +60,15 @@ void Studio::replace_session(std::shared_ptr<Session> session, SceneSetup setup)
 }
 
 void Studio::new_scene() {
-  body_.reset();
-  replace_session(std::make_shared<Session>(tools_), SceneSetup{});
+  replace_session(std::make_shared<Session>(tools_));
   emit message("New scene", false);
 }
 
 bool Studio::open_body(const QString& path, const BodyImportOptions& options) {
-  BodySpec spec{QFileInfo(path).absoluteFilePath().toStdString(), options};
+  const std::string file = QFileInfo(path).absoluteFilePath().toStdString();
   std::optional<Body> body;
   try {
-    body = Body::load(spec.path, spec.options);  // seconds for a large file: outside the session's lock
+    body = Body::load(file, options);  // seconds for a large file: outside the session's lock
   } catch (const std::exception& e) {
     return fail("The body was not opened", e);
   }
@@ -77,20 +76,16 @@ bool Studio::open_body(const QString& path, const BodyImportOptions& options) {
     loop_->call([&](Session& s) {
       s.set_body(*body);
       // Garments not yet touched are laid over the new body.
-      if (s.journal().entries().empty() && !s.stroke_active())
-        for (std::size_t i = 0; i < s.garment_count(); ++i) place_over_body(s.garment(i), *s.body());
+      if (!has_strokes(s) && !s.stroke_active()) lay_over_body(s);
     });
   } catch (const std::exception& e) {
     return fail("The body was not set", e);
   }
-  setup_.body = spec;
-  body_ = std::move(body);
-  const Body& b = *body_;
   emit message(QString("Body %1: %2 triangles, %3 m tall (%4)")
                    .arg(QFileInfo(path).fileName())
-                   .arg(b.triangles().size())
-                   .arg(b.height(), 0, 'f', 2)
-                   .arg(QString::fromStdString(b.report().format)),
+                   .arg(body->triangles().size())
+                   .arg(body->height(), 0, 'f', 2)
+                   .arg(QString::fromStdString(body->report().format)),
                false);
   emit scene_changed();
   return true;
@@ -98,40 +93,39 @@ bool Studio::open_body(const QString& path, const BodyImportOptions& options) {
 
 bool Studio::add_garment(const GarmentSpec& spec) {
   try {
-    loop_->call([&](Session& s) { SceneSetup::add(s, spec); });
+    loop_->call([&](Session& s) { studio::add_garment(s, spec); });
   } catch (const std::exception& e) {
     return fail("The garment was not made", e);
   }
-  setup_.garments.push_back(spec);
   emit message(QString("New garment: %1").arg(QString::fromStdString(spec.describe())), false);
   emit scene_changed();
   return true;
 }
 
 bool Studio::open_session(const QString& path) {
-  SessionFile file;
-  std::optional<Body> body;
   auto session = std::make_shared<Session>(tools_);
+  std::size_t operations = 0;
   try {
-    file = load_session_file(path.toStdString());
-    body = file.setup.load_body();
+    SessionFileReport report;
+    const std::vector<Operation> ops = load_session(path.toStdString(), &report);
     std::lock_guard<std::recursive_mutex> lock(session->mutex());
-    session->set_frame_rate(60);
-    file.setup.build(*session, body);
-    kiji::replay(*session, file.strokes);
+    operations = kiji::replay(*session, ops);
+    if (!report.damage.empty())
+      emit message(QString("%1 was damaged at its end (%2): the %3 operations before it were opened")
+                       .arg(path, QString::fromStdString(report.damage))
+                       .arg(operations),
+                   true);
   } catch (const std::exception& e) {
     return fail("The session was not opened (the one open is as it was)", e);
   }
-  body_ = std::move(body);
-  replace_session(std::move(session), file.setup);
-  emit message(QString("Opened %1: %2 strokes replayed").arg(QFileInfo(path).fileName()).arg(file.strokes.size()), false);
+  replace_session(std::move(session));
+  emit message(QString("Opened %1: %2 operations replayed").arg(QFileInfo(path).fileName()).arg(operations), false);
   return true;
 }
 
 bool Studio::save_session(const QString& path) {
   try {
-    const SceneSetup setup = setup_;
-    loop_->call([&](Session& s) { save_session_file(path.toStdString(), setup, s); });
+    loop_->call([&](Session& s) { kiji::save_session(s, path.toStdString()); });
   } catch (const std::exception& e) {
     return fail("The session was not saved", e);
   }
@@ -151,19 +145,18 @@ bool Studio::export_garment(const QString& path, int garment) {
 
 bool Studio::replay(const QString& journal) {
   try {
-    const std::vector<JournalStroke> strokes = load_journal(journal.toStdString());
     std::size_t done = 0;
-    loop_->call([&](Session& s) { done = kiji::replay(s, strokes); });
-    emit message(QString("Replayed %1 of %2 strokes from %3").arg(done).arg(strokes.size()).arg(journal), false);
+    loop_->call([&](Session& s) { done = kiji::replay_file(s, journal.toStdString()); });
+    emit message(QString("Replayed %1 from %2").arg(done).arg(journal), false);
   } catch (const std::exception& e) {
-    return fail("The journal was not replayed (strokes before the failing one stay)", e);
+    return fail("The journal was not replayed (what came before the failing entry stays)", e);
   }
   return true;
 }
 
 bool Studio::save_journal(const QString& path) {
   try {
-    loop_->call([&](Session& s) { kiji::save_journal(s.journal(), path.toStdString()); });
+    loop_->call([&](Session& s) { kiji::save_journal(s, path.toStdString()); });
   } catch (const std::exception& e) {
     return fail("The journal was not saved", e);
   }
@@ -184,7 +177,7 @@ void Studio::redo() {
 }
 
 void Studio::set_simulating(bool on) {
-  loop_->post([on](Session& s) { s.simulating = on; }, on ? "run" : "pause");
+  loop_->post([on](Session& s) { s.set_simulating(on); }, on ? "run" : "pause");
 }
 
 bool Studio::simulating() const {
@@ -201,7 +194,6 @@ void Studio::drape(double seconds) {
       std::atomic<bool>& flag;
       ~Done() { flag = false; }
     } done{draping_};
-    const bool before_strokes = s.journal().entries().empty() && !s.stroke_active();
     const double start = s.time();
     long step = 0;
     drape_session(s, seconds, [&](double) {
@@ -209,12 +201,8 @@ void Studio::drape(double seconds) {
       return !cancel_drape_.load() && !loop->stop_requested();
     });
     const double simulated = s.time() - start;
-    QMetaObject::invokeMethod(this, [this, before_strokes, simulated, start] {
-      if (before_strokes && setup_.drape_seconds == 0 && start < 1e-9) setup_.drape_seconds = simulated;
-      emit message(QString("Draped for %1 s of simulated time%2")
-                       .arg(simulated, 0, 'f', 2)
-                       .arg(before_strokes ? "" : " (after strokes: a saved session does not replay this drape)"),
-                   false);
+    QMetaObject::invokeMethod(this, [this, simulated] {
+      emit message(QString("Draped for %1 s of simulated time").arg(simulated, 0, 'f', 2), false);
     });
   }, "drape");
 }
@@ -222,14 +210,20 @@ void Studio::drape(double seconds) {
 bool Studio::reset() {
   auto session = std::make_shared<Session>(tools_);
   try {
+    std::vector<Operation> setup;
+    loop_->call([&](Session& s) {
+      for (const Operation& op : s.journal().operations()) {
+        if (std::holds_alternative<op::ToolInput>(op.data)) break;
+        setup.push_back(op);
+      }
+    });
     std::lock_guard<std::recursive_mutex> lock(session->mutex());
-    session->set_frame_rate(60);
-    setup_.build(*session, body_);
+    kiji::replay(*session, setup);
   } catch (const std::exception& e) {
     return fail("The scene was not reset", e);
   }
-  replace_session(std::move(session), setup_);
-  emit message("Reset: the scene as it was set up", false);
+  replace_session(std::move(session));
+  emit message("Reset: the scene as it was before the first stroke", false);
   return true;
 }
 

@@ -1,6 +1,7 @@
 // The desktop app's model, without widgets: the session and its simulation thread, the pointing
-// device and its haptic loop, the scene's set-up, and every command of the menus. A command that
-// fails says why through message() and leaves the session as it was.
+// device and its haptic loop, and every command of the menus. Each change to the session is one of
+// its operations (kiji/operation.h), so undo, saving and replay see all of it. A command that fails
+// says why through message() and leaves the session as it was.
 #pragma once
 
 #include "mouse_device.h"
@@ -31,7 +32,6 @@ class Studio : public QObject {
   std::shared_ptr<Session> session() const { return session_; }
   SimulationLoop& loop() { return *loop_; }
   std::shared_ptr<const SceneFrame> frame() const { return loop_->frame(); }
-  const SceneSetup& setup() const { return setup_; }
   ToolRegistry& tools() { return *tools_; }
 
   // --- File ---
@@ -39,11 +39,14 @@ class Studio : public QObject {
   void new_scene();
   bool open_body(const QString& path, const BodyImportOptions& options);
   bool add_garment(const GarmentSpec& spec);
+  // A session file (.kiji: the log of every operation) replayed into a new session.
   bool open_session(const QString& path);
   bool save_session(const QString& path);
   bool export_garment(const QString& path, int garment = 0);
-  // Runs the strokes of a journal file on the scene as it is (set up as the journal's was).
+  // Replays a journal file on the scene as it is: the strokes of a version 1 journal at their times,
+  // or the operations of a version 2 one (those the scene was set up with are skipped).
   bool replay(const QString& journal);
+  // The session's operations as a readable JSON journal (version 2).
   bool save_journal(const QString& path);
 
   // --- Edit ---
@@ -54,12 +57,12 @@ class Studio : public QObject {
   void set_simulating(bool on);
   bool simulating() const;
   // Lets the garments fall and settle on the body for `seconds` of simulated time, with the drape's
-  // finer solver settings, as fast as the machine goes; frames show it. Before the first stroke it
-  // becomes part of the scene's set-up (a saved session replays it).
+  // finer solver settings, as fast as the machine goes; frames show it.
   void drape(double seconds);
   bool draping() const { return draping_.load(); }
   void cancel_drape() { cancel_drape_ = true; }
-  // The scene as it was set up, before any simulation or stroke; the journal is dropped.
+  // The scene as it was just before the first stroke (its operations before it replayed into a
+  // new session); the strokes are dropped.
   bool reset();
   // Whether the session's clock runs (see SimulationLoop::set_stepping): held while a scripted
   // run sets its scene up and replays, so that it starts from time zero every time.
@@ -98,7 +101,7 @@ class Studio : public QObject {
     std::string id;
     ParamSet params;
   };
-  void replace_session(std::shared_ptr<Session> session, SceneSetup setup);
+  void replace_session(std::shared_ptr<Session> session);
   void start_loop();
   void stop_device();
   void poll();
@@ -107,8 +110,6 @@ class Studio : public QObject {
   std::shared_ptr<ToolRegistry> tools_;
   std::shared_ptr<Session> session_;
   std::unique_ptr<SimulationLoop> loop_;
-  SceneSetup setup_;
-  std::optional<Body> body_;  // loaded for the set-up, kept for a reset
   ToolChoice primary_, secondary_;
 
   DeviceKind kind_ = DeviceKind::None;

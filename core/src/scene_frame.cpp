@@ -69,7 +69,7 @@ std::shared_ptr<SceneFrame> SceneFrameBuilder::build(const Session& session, boo
   frame->time = session.time();
   frame->stroke_active = session.stroke_active();
   frame->stroke_tool = session.active_tool();
-  frame->simulating = session.simulating;
+  frame->simulating = session.simulating();
   frame->can_undo = session.journal().can_undo();
   frame->can_redo = session.journal().can_redo();
 

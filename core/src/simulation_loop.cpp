@@ -31,7 +31,8 @@ SimulationLoop::SimulationLoop(std::shared_ptr<Session> session, double rate_hz)
     : session_(std::move(session)), rate_hz_(rate_hz) {
   if (!session_) throw InputError("a simulation loop needs a session");
   std::lock_guard<std::recursive_mutex> lock(session_->mutex());
-  session_->set_frame_rate(rate_hz);  // validates the rate
+  // A change of rate is an operation of the session: made only when there is one.
+  if (session_->frame_rate() != rate_hz) session_->set_frame_rate(rate_hz);  // validates the rate
 }
 
 SimulationLoop::~SimulationLoop() { stop(); }
@@ -210,7 +211,7 @@ void SimulationLoop::tick() {
     stroke_tool_.clear();
   }
   handle_device(s);
-  // A paused session (Session::simulating) still steps: its clock goes on, its cloth stands.
+  // A paused session (Session::simulating()) still steps: its clock goes on, its cloth stands.
   if (stepping_.load()) {
     try {
       s.step();

@@ -50,9 +50,11 @@ from ._kiji import (
 from ._session import (
     PACKAGE_PLUGIN_FOLDER,
     Session,
+    load,
     load_plugins,
     plugin_folders,
     plugin_reports,
+    recover,
     registry,
     tool_info,
     tools,
@@ -65,7 +67,7 @@ __all__ = [
     "Body", "Camera", "ClothMeasures", "Error", "Garment", "InputError", "JournalStroke", "Material",
     "ParamSpec", "Session", "SolverParams", "StepReport", "SurfaceHit", "TopologyError", "ToolEvent", "ToolInfo",
     "ToolRegistry", "JOURNAL_FILE_VERSION", "PACKAGE_PLUGIN_FOLDER", "abi_tag", "export_garment",
-    "load_garment", "load_journal", "load_plugins", "panel", "place_over_body", "plugin_folders",
-    "plugin_reports", "read_png", "rectangle", "registry", "render", "save_journal", "tool_info", "tools",
+    "load", "load_garment", "load_journal", "load_plugins", "panel", "place_over_body", "plugin_folders",
+    "plugin_reports", "read_png", "recover", "rectangle", "registry", "render", "save_journal", "tool_info", "tools",
     "version", "write_png",
 ]

@@ -181,18 +181,29 @@ class Session(_kiji.Session):
 
     def __init__(self, body: Optional[_kiji.Body] = None, *, registry: Optional[_kiji.ToolRegistry] = None,
                  solver: Optional[_kiji.SolverParams] = None, frame_rate: Optional[float] = None,
-                 session: Optional[_kiji.Session] = None) -> None:
-        # session=: a handle on an existing session (an app's own), with its tools, not a new one.
-        if session is not None:
-            super().__init__(session=session)
+                 autosave: Optional[str | os.PathLike] = None, _core: Optional[_kiji.Session] = None) -> None:
+        """A new session (or, with _core, a handle on an existing one). With autosave=PATH every
+        operation is appended to that session file as it is applied, flushed before the call that made
+        it returns; kiji.recover(PATH) rebuilds the session after a crash. A PATH that already holds a
+        session is refused rather than overwritten."""
+        if _core is not None:
+            super().__init__(_core)
         else:
             super().__init__(registry if registry is not None else _registry)
+        self._autosave = None
+        if autosave is not None:
+            self._autosave = self._start_autosave(os.fspath(autosave))
         if body is not None:
             self.body = body
         if solver is not None:
             self.solver_params = solver
         if frame_rate is not None:
             self.frame_rate = frame_rate
+
+    @property
+    def autosave(self) -> Optional[str]:
+        """The session file every operation is appended to, or None."""
+        return self._autosave.path if self._autosave is not None else None
 
     def tools(self) -> list[_kiji.ToolInfo]:
         """The tools of this session, with their declared parameters."""
@@ -246,6 +257,26 @@ class Session(_kiji.Session):
 
 
 Session.__module__ = "kiji"
+
+
+def recover(path: str | os.PathLike, *, registry: Optional[_kiji.ToolRegistry] = None,
+            keep_saving: bool = True) -> Session:
+    """Rebuilds a session from its session file (autosave): every operation whose call had returned,
+    strokes the crash left unfinished cancelled. With keep_saving the session goes on autosaving into
+    the same file (a damaged end, from a crash while writing, is cut off first). The session's
+    `recovery` attribute says what was found: operations, damage, cancelled_strokes."""
+    core, autosave, report = _kiji._recover(os.fspath(path), registry if registry is not None else _registry,
+                                            keep_saving)
+    s = Session(_core=core)
+    s._autosave = autosave
+    s.recovery = report
+    return s
+
+
+def load(path: str | os.PathLike, *, registry: Optional[_kiji.ToolRegistry] = None) -> Session:
+    """A new session from a session file (Session.save), replayed operation by operation."""
+    core = _kiji._load_session(os.fspath(path), registry if registry is not None else _registry)
+    return Session(_core=core)
 _BUILT_IN_ATTRIBUTES = set(dir(Session))
 _installed: set[str] = set()
 

@@ -13,6 +13,8 @@
 
 #include <functional>
 #include <memory>
+#include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -20,15 +22,45 @@ namespace py = pybind11;
 
 namespace kiji::python {
 
+// The one-thread-at-a-time rule for a session (Session::mutex) as Python keeps it: every binding
+// that uses a session holds this guard. If another thread holds the session (a long step with the
+// GIL released), the GIL is released while waiting, so that the holder can call back into Python.
+class SessionGuard {
+ public:
+  explicit SessionGuard(const Session& session);
+  SessionGuard(SessionGuard&&) = default;
+
+ private:
+  std::unique_lock<std::recursive_mutex> lock_;
+};
+
 // A garment as Python sees it: either its own (made by a pattern function or loaded from a file), or
 // the garment at an index of a session. Adding an own garment to a session moves it there and makes
-// the handle a view of the session's, so `g` keeps showing what the tools did to it.
+// the handle a view of the session's, so `g` keeps showing what the tools did to it. A change made
+// through a view is a copy of the session's garment, changed and given back with
+// Session::set_garment: an operation of the session's journal like any other.
 class GarmentRef {
  public:
   explicit GarmentRef(Garment g) : owned_(std::make_shared<Garment>(std::move(g))) {}
   GarmentRef(std::shared_ptr<Session> session, std::size_t index) : session_(std::move(session)), index_(index) {}
 
-  Garment& get() const { return session_ ? session_->garment(index_) : *owned_; }
+  // The garment to read; hold guard() while reading a session's.
+  const Garment& get() const { return session_ ? session_->garment(index_) : *owned_; }
+  std::optional<SessionGuard> guard() const {
+    if (!session_) return std::nullopt;
+    return std::optional<SessionGuard>(std::in_place, *session_);
+  }
+  // Changes the garment: in place if it is its own, else as an operation on the session.
+  void edit(const std::function<void(Garment&)>& change) {
+    if (!session_) {
+      change(*owned_);
+      return;
+    }
+    SessionGuard lock(*session_);
+    Garment copy = session_->garment(index_);
+    change(copy);
+    session_->set_garment(index_, copy);
+  }
   bool in_session() const { return session_ != nullptr; }
   std::size_t index() const { return index_; }
   const std::shared_ptr<Session>& session() const { return session_; }
@@ -59,6 +91,8 @@ py::array_t<double, py::array::c_style> real_array(py::handle obj, const char* w
 // Copies an Eigen-like row of three into a NumPy vector.
 py::array_t<double> vec3_array(const Vec3& v);
 Vec3 to_vec3(py::handle obj, const char* what);
+// A file path from a str or an os.PathLike.
+std::string path_arg(py::handle obj);
 
 // Tool parameters from Python values, checked against the tool's declarations: TypeError for an
 // unknown name or a value of the wrong type, InputError (a ValueError) for one out of range.

@@ -52,6 +52,18 @@ void bind_errors(py::module_& m) {
   });
 }
 
+std::string path_arg(py::handle obj) {
+  if (!py::isinstance<py::str>(obj) && !py::hasattr(obj, "__fspath__"))
+    throw py::type_error("expected a path (str or os.PathLike), not " + std::string(py::str(obj.get_type().attr("__name__"))));
+  return py::str(py::module_::import("os").attr("fspath")(obj)).cast<std::string>();
+}
+
+SessionGuard::SessionGuard(const Session& session) : lock_(session.mutex(), std::try_to_lock) {
+  if (lock_.owns_lock()) return;
+  py::gil_scoped_release nogil;
+  lock_.lock();
+}
+
 VertexRows::VertexRows(const Garment& g) : row(g.vertex_capacity(), -1) {
   for (Vertex v : g.mesh().vertices()) {
     row[v.idx()] = static_cast<long>(vertices.size());

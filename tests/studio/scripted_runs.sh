@@ -48,7 +48,7 @@ run --garment rect:1,1,0.05 --device none --paused --edges all --window 1280x800
   --replay "$data/cut_and_paint.journal" --quit-after 1 --screenshot "$tmp/replay.png" \
   --save-journal "$tmp/replayed.journal" --export "$tmp/replayed.glb"
 [ $rc -eq 0 ] || { fail "exit $rc, not 0"; cat "$tmp/out.txt"; }
-[ "$(grep -c '"tool":' "$tmp/replayed.journal" 2>/dev/null)" = 2 ] || fail "the replayed journal does not have its 2 strokes"
+[ "$(grep -c '"phase": "begin"' "$tmp/replayed.journal" 2>/dev/null)" = 2 ] || fail "the replayed journal does not have its 2 strokes"
 [ -s "$tmp/replayed.glb" ] || fail "no garment exported"
 "$compare" "$tmp/replay.png" "$data/replay_reference.png" || fail "the screenshot differs from data/replay_reference.png"
 

@@ -73,7 +73,7 @@ class SimulationLoop {
 
   // Whether the loop steps the session at all (it still runs work and tools, and publishes). Off
   // while an app sets its scene up, so that the clock starts at zero when the user (or a replayed
-  // journal) does. Pausing the cloth is the session's own setting (Session::simulating), not this.
+  // journal) does. Pausing the cloth is the session's own setting (Session::set_simulating), not this.
   void set_stepping(bool on) { stepping_.store(on); }
   bool stepping() const { return stepping_.load(); }
 

@@ -4,6 +4,8 @@
 #include "kiji/phantom.h"
 #include "kiji/session.h"
 
+#include "hd_standin/hd_record.h"
+
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -25,41 +27,6 @@ std::shared_ptr<ToolRegistry> plugins() {
 }
 
 const std::string kTmp = KIJI_TEST_TMP;
-
-// What the stand-in recorded: the calls in order, and each servo frame's force.
-struct Record {
-  std::vector<std::string> calls;
-  std::vector<std::string> lines;  // every line, in order
-  std::vector<std::pair<double, Vec3>> forces;
-  std::vector<unsigned> errors;
-};
-
-Record read_record(const std::string& path) {
-  Record r;
-  std::ifstream in(path);
-  std::string line;
-  while (std::getline(in, line)) {
-    std::istringstream s(line);
-    std::string kind;
-    s >> kind;
-    r.lines.push_back(line);
-    if (kind == "call") {
-      std::string name;
-      s >> name;
-      r.calls.push_back(name);
-    } else if (kind == "force") {
-      double t, x, y, z;
-      s >> t >> x >> y >> z;
-      r.forces.emplace_back(t, Vec3(x, y, z));
-    } else if (kind == "error") {
-      double t;
-      std::string code;
-      s >> t >> code;
-      r.errors.push_back(static_cast<unsigned>(std::stoul(code, nullptr, 16)));
-    }
-  }
-  return r;
-}
 
 // The stand-in's configuration for one test, undone after it.
 class StandIn : public ::testing::Test {
@@ -180,7 +147,7 @@ TEST_F(StandIn, AFailedSchedulerIsAnErrorAndLeavesNothingScheduled) {
     EXPECT_NE(std::string(e.what()).find("HD_TIMER_ERROR (0x0304)"), std::string::npos) << e.what();
     EXPECT_FALSE(loop.running());
   }
-  const Record r = read_record(log_);
+  const test::HdRecord r = test::read_hd_record(log_);
   EXPECT_EQ(r.calls, (std::vector<std::string>{"hdInitDevice", "hdScheduleAsynchronous", "hdEnable(HD_FORCE_OUTPUT)",
                                                 "hdStartScheduler", "hdStopScheduler", "hdUnschedule",
                                                 "hdDisableDevice"}));
@@ -220,7 +187,7 @@ TEST_F(StandIn, APinchFeltThroughTheServoLoopInTheVendorsOrder) {
     EXPECT_EQ(stats.tool_errors + stats.device_errors, 0u) << stats.last_error;
     EXPECT_TRUE(device.status().last_error == 0) << device.status().last_error_text;
   }
-  const Record r = read_record(log_);
+  const test::HdRecord r = test::read_hd_record(log_);
   EXPECT_EQ(r.calls, (std::vector<std::string>{"hdInitDevice", "hdScheduleAsynchronous", "hdEnable(HD_FORCE_OUTPUT)",
                                                 "hdStartScheduler", "hdStopScheduler", "hdUnschedule",
                                                 "hdDisableDevice"}));

@@ -229,8 +229,12 @@ TEST(SimulationLoop, APausedSessionKeepsItsClothStill) {
   loop.start();
   loop.call([](Session& session) { session.set_simulating(false); });
   const auto a = loop.frame();
-  ASSERT_TRUE(wait_until([&] { return loop.frame()->number > a->number + 5; }));
+  const std::uint64_t ticks = loop.stats().steps;
+  ASSERT_TRUE(wait_until([&] { return loop.stats().steps > ticks + 5; }));
   const auto b = loop.frame();
   EXPECT_FALSE(b->simulating);
   EXPECT_EQ(a->garments[0].positions, b->garments[0].positions);
+  EXPECT_EQ(b->number, a->number) << "nothing changed: no new frame for the UI to draw";
+  loop.call([](Session& session) { session.set_simulating(true); });
+  ASSERT_TRUE(wait_until([&] { return loop.frame()->number > b->number + 3; })) << "and frames again once it runs";
 }

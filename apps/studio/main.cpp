@@ -85,7 +85,7 @@ struct Run {
     if (o.screenshot) check(window.save_picture(QString::fromStdString(*o.screenshot)), "--screenshot");
     if (o.window_screenshot) {
       const QString path = QString::fromStdString(*o.window_screenshot);
-      const bool ok = window.grab().save(path);
+      const bool ok = window.grab_window().save(path);
       if (!ok) std::fprintf(stderr, "kiji-studio: the window's picture was not saved to %s\n", o.window_screenshot->c_str());
       check(ok, "--window-screenshot");
     }

@@ -24,6 +24,7 @@
 #include <QLineEdit>
 #include <QMenuBar>
 #include <QMessageBox>
+#include <QPainter>
 #include <QStatusBar>
 #include <QTextStream>
 
@@ -60,8 +61,8 @@ std::vector<Vec2> parse_outline(const QString& text) {
 
 MainWindow::MainWindow(Studio& studio, QWidget* parent) : QMainWindow(parent), studio_(studio) {
   setWindowTitle("Kiji Studio");
-  viewport_ = new Viewport(studio, this);
-  setCentralWidget(viewport_);
+  viewport_ = new Viewport(studio);
+  setCentralWidget(viewport_->widget(this));
 
   tools_ = new ToolPanel(studio.tools(), this);
   tools_dock_ = new QDockWidget("Tools", this);
@@ -281,6 +282,16 @@ void MainWindow::update_status() {
   // Undo and redo stay enabled: the frame says what was undoable up to 16 ms ago, and a shortcut
   // pressed meanwhile must not be lost; with nothing to undo, the status bar says so.
   if (frame && run_action_->isChecked() != frame->simulating) run_action_->setChecked(frame->simulating);
+}
+
+QImage MainWindow::grab_window() {
+  // The view is a window of its own inside this one: QWidget::grab sees its place, not its pixels.
+  QImage image = grab().toImage();
+  const QImage view = viewport_->grabFramebuffer();
+  QWidget* holder = viewport_->widget();
+  QPainter painter(&image);
+  painter.drawImage(QRect(holder->mapTo(this, QPoint(0, 0)), holder->size()), view);
+  return image;
 }
 
 bool MainWindow::save_picture(const QString& path) {

@@ -33,6 +33,8 @@ class MainWindow : public QMainWindow {
   QString status_text() const;
   // The viewport as a picture (what File > Save picture writes).
   bool save_picture(const QString& path);
+  // The whole window, the view in it.
+  QImage grab_window();
   void set_edge_display(EdgeDisplay mode);
 
  protected:

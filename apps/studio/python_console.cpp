@@ -93,6 +93,9 @@ bool start_interpreter(const std::function<void(const std::string&, bool)>& emit
   if (h.interpreter) return true;
   if (!h.failure.empty()) return false;
   try {
+    // numpy's BLAS starts a thread a core that spins between calls, taking cycles from the
+    // simulation and the drawing; a console's scripts do not need it.
+    setenv("OPENBLAS_NUM_THREADS", "1", 0);
     PyConfig config;
     PyConfig_InitPythonConfig(&config);
     // Python's SIGINT handler, so that the Stop button (PyErr_SetInterrupt) raises KeyboardInterrupt,

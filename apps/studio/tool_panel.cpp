@@ -21,6 +21,8 @@
 #include <QVBoxLayout>
 
 #include <cmath>
+#include <functional>
+#include <type_traits>
 
 namespace kiji::studio {
 
@@ -68,6 +70,39 @@ void show_colour(QPushButton* b, const Vec3& c) {
   b->setStyleSheet(QString("background-color: %1; color: %2;").arg(q.name(), q.lightnessF() > 0.5 ? "black" : "white"));
 }
 
+// A number's editor: its spin box (the unit as a suffix) with, for a bounded range, a slider kept in
+// step with it; `changed` gets every new value.
+template <typename SpinBox>
+QWidget* number_row(const ParamSpec& spec, SpinBox* spin, std::function<void(double)> changed) {
+  auto* row = new QWidget;
+  auto* h = new QHBoxLayout(row);
+  h->setContentsMargins(0, 0, 0, 0);
+  spin->setParent(row);
+  spin->setObjectName("spin");
+  spin->setSuffix(unit_suffix(spec));
+  using Value = decltype(spin->value());
+  if (bounded(spec)) {
+    auto* slider = new QSlider(Qt::Horizontal, row);
+    slider->setObjectName("slider");
+    const SliderScale scale(spec);
+    slider->setRange(0, kSliderSteps);
+    slider->setValue(scale.to_slider(double(spin->value())));
+    QObject::connect(slider, &QSlider::valueChanged, spin, [spin, scale](int i) {
+      const double v = scale.from_slider(i);
+      spin->setValue(std::is_integral_v<Value> ? Value(std::lround(v)) : Value(v));
+    });
+    QObject::connect(spin, qOverload<Value>(&SpinBox::valueChanged), slider, [slider, scale](Value v) {
+      const QSignalBlocker block(slider);
+      slider->setValue(scale.to_slider(double(v)));
+    });
+    h->addWidget(slider, 2);
+  }
+  h->addWidget(spin, 1);
+  QObject::connect(spin, qOverload<Value>(&SpinBox::valueChanged), row,
+                   [changed = std::move(changed)](Value v) { changed(double(v)); });
+  return row;
+}
+
 }  // namespace
 
 ParamPanel::ParamPanel(QWidget* parent) : QWidget(parent) {
@@ -113,63 +148,21 @@ QWidget* ParamPanel::make_editor(const ParamSpec& spec) {
       break;
     }
     case ParamType::Int: {
-      auto* row = new QWidget(this);
-      auto* h = new QHBoxLayout(row);
-      h->setContentsMargins(0, 0, 0, 0);
-      auto* spin = new QSpinBox(row);
-      spin->setObjectName("spin");
+      auto* spin = new QSpinBox();
       const bool b = bounded(spec);
       spin->setRange(b ? int(spec.min) : -2147483647, b ? int(spec.max) : 2147483647);
       spin->setValue(int(std::get<long long>(value)));
-      spin->setSuffix(unit_suffix(spec));
-      if (b) {
-        auto* slider = new QSlider(Qt::Horizontal, row);
-        slider->setObjectName("slider");
-        const SliderScale scale(spec);
-        slider->setRange(0, kSliderSteps);
-        slider->setValue(scale.to_slider(double(spin->value())));
-        connect(slider, &QSlider::valueChanged, spin, [spin, scale](int i) {
-          spin->setValue(int(std::lround(scale.from_slider(i))));
-        });
-        connect(spin, qOverload<int>(&QSpinBox::valueChanged), slider, [slider, scale](int v) {
-          const QSignalBlocker block(slider);
-          slider->setValue(scale.to_slider(v));
-        });
-        h->addWidget(slider, 2);
-      }
-      h->addWidget(spin, 1);
-      connect(spin, qOverload<int>(&QSpinBox::valueChanged), this, [this, name](int v) { set(name, (long long)v); });
-      editor = row;
+      editor = number_row(spec, spin, [this, name](double v) { set(name, (long long)std::llround(v)); });
       break;
     }
     case ParamType::Float: {
-      auto* row = new QWidget(this);
-      auto* h = new QHBoxLayout(row);
-      h->setContentsMargins(0, 0, 0, 0);
-      auto* spin = new QDoubleSpinBox(row);
-      spin->setObjectName("spin");
+      auto* spin = new QDoubleSpinBox();
       const bool b = bounded(spec);
       spin->setDecimals(decimals_for(spec));
       spin->setRange(b ? spec.min : -1e12, b ? spec.max : 1e12);
       spin->setSingleStep(std::pow(10.0, -spin->decimals() + 1));
       spin->setValue(std::get<double>(value));
-      spin->setSuffix(unit_suffix(spec));
-      if (b) {
-        auto* slider = new QSlider(Qt::Horizontal, row);
-        slider->setObjectName("slider");
-        const SliderScale scale(spec);
-        slider->setRange(0, kSliderSteps);
-        slider->setValue(scale.to_slider(spin->value()));
-        connect(slider, &QSlider::valueChanged, spin, [spin, scale](int i) { spin->setValue(scale.from_slider(i)); });
-        connect(spin, qOverload<double>(&QDoubleSpinBox::valueChanged), slider, [slider, scale](double v) {
-          const QSignalBlocker block(slider);
-          slider->setValue(scale.to_slider(v));
-        });
-        h->addWidget(slider, 2);
-      }
-      h->addWidget(spin, 1);
-      connect(spin, qOverload<double>(&QDoubleSpinBox::valueChanged), this, [this, name](double v) { set(name, v); });
-      editor = row;
+      editor = number_row(spec, spin, [this, name](double v) { set(name, v); });
       break;
     }
     case ParamType::Choice: {

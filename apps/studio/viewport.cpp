@@ -6,6 +6,7 @@
 #include <QMouseEvent>
 #include <QOpenGLContext>
 #include <QWheelEvent>
+#include <QWidget>
 
 #include <cmath>
 
@@ -19,20 +20,26 @@ constexpr double kAboveCloth = 0.002;
 
 }  // namespace
 
-Viewport::Viewport(Studio& studio, QWidget* parent) : QOpenGLWidget(parent), studio_(studio) {
-  setMouseTracking(true);
-  setFocusPolicy(Qt::StrongFocus);
-  setMinimumSize(320, 240);
+Viewport::Viewport(Studio& studio) : studio_(studio) {
   timer_.setTimerType(Qt::PreciseTimer);
   connect(&timer_, &QTimer::timeout, this, &Viewport::tick);
   timer_.start(16);
   fps_clock_.start();
-  connect(this, &QOpenGLWidget::frameSwapped, this, [this] {
+  connect(this, &QOpenGLWindow::frameSwapped, this, [this] {
     if (continuous_) update();
   });
 }
 
 Viewport::~Viewport() { release_gl(); }
+
+QWidget* Viewport::widget(QWidget* parent) {
+  if (!container_) {
+    container_ = QWidget::createWindowContainer(this, parent);
+    container_->setMinimumSize(320, 240);
+    container_->setFocusPolicy(Qt::StrongFocus);
+  }
+  return container_;
+}
 
 void Viewport::release_gl() {
   if (!gl_ready_ || !context()) return;
@@ -82,12 +89,15 @@ void Viewport::paintGL() {
   }
   const auto frame = studio_.frame();
   if (!frame) return;
-  if (!framed_once_ && !frame->bounds().isEmpty()) {
+  if (pending_frame_) {
+    camera_.frame(*pending_frame_, double(width()) / std::max(1, height()));
+    pending_frame_.reset();
+  } else if (!framed_once_ && !frame->bounds().isEmpty()) {
     camera_.frame(frame->bounds(), double(width()) / std::max(1, height()));
     framed_once_ = true;
   }
   options_.show_pointer = studio_.device_kind() == DeviceKind::Phantom || cursor_inside_ || drag_ == Drag::Stroke;
-  const qreal dpr = devicePixelRatioF();
+  const qreal dpr = devicePixelRatio();
   renderer_.draw(*frame, camera_, options_, int(width() * dpr), int(height() * dpr));
   drawn_frame_ = frame->number;
   dirty_ = false;
@@ -111,11 +121,16 @@ void Viewport::tick() {
 
 void Viewport::frame_all() {
   const auto frame = studio_.frame();
-  if (!frame) return;
-  camera_.frame(frame->bounds(), double(width()) / std::max(1, height()));
-  framed_once_ = !frame->bounds().isEmpty();
+  if (!frame || frame->bounds().isEmpty()) return;
+  framed_once_ = true;
   has_plane_ = false;
   dirty_ = true;
+  if (width() <= 0 || height() <= 0) {
+    pending_frame_ = frame->bounds();  // not shown yet: framed when it is
+    return;
+  }
+  pending_frame_.reset();
+  camera_.frame(frame->bounds(), double(width()) / height());
 }
 
 QPointF Viewport::project(const Vec3& p) const {
@@ -250,19 +265,17 @@ void Viewport::wheelEvent(QWheelEvent* e) {
   dirty_ = true;
 }
 
-void Viewport::enterEvent(QEnterEvent*) {
-  cursor_inside_ = true;
-  dirty_ = true;
-}
-
-void Viewport::leaveEvent(QEvent*) {
-  cursor_inside_ = false;
-  dirty_ = true;
+bool Viewport::event(QEvent* e) {
+  if (e->type() == QEvent::Enter || e->type() == QEvent::Leave) {
+    cursor_inside_ = e->type() == QEvent::Enter;
+    dirty_ = true;
+  }
+  return QOpenGLWindow::event(e);
 }
 
 void Viewport::keyPressEvent(QKeyEvent* e) {
   if (e->key() == Qt::Key_F) frame_all();
-  else QOpenGLWidget::keyPressEvent(e);
+  else QOpenGLWindow::keyPressEvent(e);
 }
 
 

@@ -6,26 +6,33 @@
 //  - while a stroke holds cloth (pinch, tear, a sewn vertex), it moves on the plane through the
 //    grabbed point facing the camera, and the wheel moves that plane nearer or farther.
 // Left button: the primary tool; right button: the secondary one.
+//
+// It is a QOpenGLWindow in a window container, not a QOpenGLWidget: for a QOpenGLWidget Qt composes
+// the whole top-level window through OpenGL on every frame, which under Mesa's llvmpipe costs
+// several times what the scene does (docs/benchmarks.md, "Kiji Studio").
 #pragma once
 
 #include "orbit_camera.h"
 #include "scene_renderer.h"
 
 #include <QElapsedTimer>
-#include <QOpenGLWidget>
+#include <QOpenGLWindow>
 #include <QTimer>
 
 #include <deque>
+#include <optional>
 
 namespace kiji::studio {
 
 class Studio;
 
-class Viewport : public QOpenGLWidget {
+class Viewport : public QOpenGLWindow {
   Q_OBJECT
  public:
-  explicit Viewport(Studio& studio, QWidget* parent = nullptr);
+  explicit Viewport(Studio& studio);
   ~Viewport() override;
+  // The widget that holds the view in a layout (made on the first call; owned by its parent).
+  QWidget* widget(QWidget* parent = nullptr);
 
   OrbitCamera& camera() { return camera_; }
   DrawOptions& draw_options() { return options_; }
@@ -56,8 +63,7 @@ class Viewport : public QOpenGLWidget {
   void mouseReleaseEvent(QMouseEvent* e) override;
   void wheelEvent(QWheelEvent* e) override;
   void keyPressEvent(QKeyEvent* e) override;
-  void enterEvent(QEnterEvent* e) override;
-  void leaveEvent(QEvent* e) override;
+  bool event(QEvent* e) override;  // the cursor coming in and going out
 
  private:
   enum class Drag { None, Orbit, Pan, Stroke };
@@ -74,11 +80,14 @@ class Viewport : public QOpenGLWidget {
   SceneRenderer renderer_;
   QString gl_error_;
   bool gl_ready_ = false;
+  QWidget* container_ = nullptr;
   QTimer timer_;
   bool continuous_ = false;
   std::uint64_t drawn_frame_ = 0;
   bool dirty_ = true;
   bool framed_once_ = false;
+  // A box to frame once the view has its size (framing needs the view's aspect).
+  std::optional<Box3> pending_frame_;
   bool cursor_inside_ = false;  // a mouse's pointer is drawn only while the cursor is over the view
 
   Drag drag_ = Drag::None;

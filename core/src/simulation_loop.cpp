@@ -174,13 +174,14 @@ void SimulationLoop::run() {
     {
       std::lock_guard<std::mutex> lock(stats_mutex_);
       ++stats_.steps;
-      recent_.emplace_back(seconds(t1), std::chrono::duration<double>(t1 - t0).count());
-      while (!recent_.empty() && recent_.front().first < seconds(t1) - 1.0) recent_.pop_front();
-      double sum = 0;
-      for (const auto& r : recent_) sum += r.second;
-      const double span = recent_.size() > 1 ? recent_.back().first - recent_.front().first : 0;
+      recent_.push_back(Tick{seconds(t1), std::chrono::duration<double>(t1 - t0).count(), publishing_});
+      while (!recent_.empty() && recent_.front().at < seconds(t1) - 1.0) recent_.pop_front();
+      double sum = 0, publishing = 0;
+      for (const Tick& r : recent_) sum += r.seconds, publishing += r.publishing;
+      const double span = recent_.size() > 1 ? recent_.back().at - recent_.front().at : 0;
       stats_.steps_per_second = span > 0 ? (recent_.size() - 1) / span : 0;
       stats_.step_ms = recent_.empty() ? 0 : 1000 * sum / recent_.size();
+      stats_.publish_ms = recent_.empty() ? 0 : 1000 * publishing / recent_.size();
     }
     std::this_thread::sleep_until(next);
     next += period;
@@ -218,6 +219,13 @@ void SimulationLoop::tick() {
     } catch (...) {
       report("simulation step: " + error_text(std::current_exception()));
     }
+  }
+  // A paused scene that nothing touched is the frame already published: the UI has nothing to redraw.
+  if (!edited_ && !s.simulating() && frame_ && frame_->simulating == s.simulating()) {
+    const bool pointer_still = !fed_ || (frame_->has_pointer && fed_->latest_sample().position == frame_->pointer.position &&
+                                         fed_->latest_sample().buttons == frame_->pointer.buttons &&
+                                         fed_->latest_force() == frame_->force);
+    if (pointer_still) return;
   }
   publish(s);
 }
@@ -347,6 +355,12 @@ void SimulationLoop::end_stroke(Session& s, const ToolEvent& sample, Phase phase
 }
 
 void SimulationLoop::publish(Session& s) {
+  const auto start = Clock::now();
+  struct Timed {
+    const Clock::time_point& start;
+    double& out;
+    ~Timed() { out = std::chrono::duration<double>(Clock::now() - start).count(); }
+  } timed{start, publishing_};
   std::shared_ptr<SceneFrame> f;
   try {
     f = builder_.build(s, edited_);

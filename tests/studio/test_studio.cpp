@@ -3,10 +3,13 @@
 // and bad input of every kind met with a message and a session as it was.
 #include "main_window.h"
 #include "python_console.h"
+#include "studio_options.h"
 #include "tool_panel.h"
 
 #include "kiji/journal_file.h"
 #include "kiji/session.h"
+
+#include "hd_standin/hd_record.h"
 
 #include <QCheckBox>
 #include <QComboBox>
@@ -33,33 +36,6 @@ bool wait_until(P done, int ms = 10000) {
   t.start();
   while (!done() && t.elapsed() < ms) QTest::qWait(10);
   return done();
-}
-
-// What the stand-in HD library recorded (see tests/hd_standin/hd_standin.cpp).
-struct HdRecord {
-  std::vector<std::string> calls;
-  std::vector<std::pair<double, Vec3>> forces;
-};
-
-HdRecord read_hd_record(const QString& path) {
-  HdRecord r;
-  std::ifstream in(path.toStdString());
-  std::string line;
-  while (std::getline(in, line)) {
-    std::istringstream s(line);
-    std::string kind;
-    s >> kind;
-    if (kind == "call") {
-      std::string name;
-      s >> name;
-      r.calls.push_back(name);
-    } else if (kind == "force") {
-      double t, x, y, z;
-      s >> t >> x >> y >> z;
-      r.forces.emplace_back(t, Vec3(x, y, z));
-    }
-  }
-  return r;
 }
 
 }  // namespace
@@ -143,6 +119,32 @@ class StudioTest : public QObject {
   void cleanup() {
     window_.reset();
     studio_.reset();
+  }
+
+  void options_are_checked_before_any_window_opens() {
+    auto message = [](std::vector<std::string> args) {
+      try {
+        StudioOptions::parse(args);
+      } catch (const UsageError& e) {
+        return QString(e.what());
+      }
+      return QString();
+    };
+    QVERIFY(message({"--garment", "rect:1,x,0.1"}).startsWith("option --garment: "));
+    QVERIFY(message({"--up", "sideways"}).contains("option --up"));
+    QVERIFY(message({"--up", "z"}).contains("give it with --body"));
+    QVERIFY(message({"--device", "tablet"}).contains("'mouse', 'phantom' or 'none'"));
+    QVERIFY(message({"--quit-after", "-1"}).contains("--quit-after"));
+    QVERIFY(message({"--quit-after"}).contains("needs a value"));
+    QVERIFY(message({"--material", "leather"}).contains("option --material"));
+    QVERIFY(message({"--frobnicate"}).contains("unknown option '--frobnicate'"));
+    const StudioOptions o = StudioOptions::parse({"--garment", "rect:1.2,0.8,0.05", "--material", "silk", "--device=none",
+                                                  "--quit-after", "2.5", "--edges", "all"});
+    QCOMPARE(o.garments.size(), std::size_t(1));
+    QCOMPARE(o.garments[0].width, 1.2);
+    QCOMPARE(o.garments[0].material, std::string("silk"));
+    QCOMPARE(o.device, std::string("none"));
+    QCOMPARE(*o.quit_after, 2.5);
   }
 
   void every_tool_has_a_widget_for_each_parameter() {
@@ -345,7 +347,7 @@ class StudioTest : public QObject {
     const HapticStats stats = studio_->haptics()->stats();
     QVERIFY2(stats.tool_errors + stats.device_errors == 0, stats.last_error.c_str());
     studio_->use_device(DeviceKind::Mouse);  // shuts the Phantom down: the stand-in writes its record
-    const HdRecord r = read_hd_record(log);
+    const test::HdRecord r = test::read_hd_record(log.toStdString());
     QCOMPARE(r.calls.back(), std::string("hdDisableDevice"));
     const std::vector<std::string> tail(r.calls.end() - 3, r.calls.end());
     QCOMPARE(tail, (std::vector<std::string>{"hdStopScheduler", "hdUnschedule", "hdDisableDevice"}));

@@ -29,7 +29,8 @@ class Session;
 struct SimulationStats {
   std::uint64_t steps = 0;      // since start
   double steps_per_second = 0;  // over the last second or so
-  double step_ms = 0;           // mean time of a step (simulation and publication) over the same
+  double step_ms = 0;           // mean time of a tick (work, tools, the step, publication) over the same
+  double publish_ms = 0;        // of which publishing: the frame, the pick under the pointer, the snapshot
 };
 
 class SimulationLoop {
@@ -138,7 +139,11 @@ class SimulationLoop {
   std::shared_ptr<const SceneFrame> frame_;  // std::atomic_load/store
   mutable std::mutex stats_mutex_;
   SimulationStats stats_;
-  std::deque<std::pair<double, double>> recent_;  // (time, step seconds) of the last second's steps
+  struct Tick {
+    double at, seconds, publishing;
+  };
+  std::deque<Tick> recent_;  // the last second's ticks
+  double publishing_ = 0;    // seconds the last publish() took
   std::mutex messages_mutex_;
   std::vector<std::string> messages_;
 };

@@ -140,3 +140,29 @@ TEST(SessionFile, KillNineAtRandomMomentsLosesNoOperationWhoseCallHadReturned) {
   }
   EXPECT_GT(recovered_total, std::size_t(trials)) << "the children got some work done before they were killed";
 }
+
+TEST(SessionFile, KijiRecoverOnTheCommandLineSaysWhatItFoundAndWritesTheGarment) {
+  const std::string path = tmp("cli_recover.kiji");
+  std::filesystem::remove(path);
+  {
+    Session a(plugins());
+    Autosave save(a, path);
+    a.add_garment(make_rectangle(0.6, 0.4, 7, 5));
+    for (int k = 0; k < 6; ++k) design_call(a, k);
+  }
+  std::filesystem::resize_file(path, std::filesystem::file_size(path) - 3);
+  const std::string glb = tmp("cli_recovered.glb");
+  std::filesystem::remove(glb);
+  const std::string cmd = std::string(KIJI_CLI) + " recover " + path + " --export " + glb + " --json 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  ASSERT_NE(p, nullptr);
+  std::string out;
+  char buf[4096];
+  for (std::size_t n; (n = fread(buf, 1, sizeof buf, p)) > 0;) out.append(buf, n);
+  EXPECT_EQ(pclose(p), 0) << out;
+  EXPECT_NE(out.find("\"garments\":1"), std::string::npos) << out;
+  EXPECT_NE(out.find("cut off"), std::string::npos) << out;
+  EXPECT_TRUE(std::filesystem::is_regular_file(glb));
+  const std::string missing = std::string(KIJI_CLI) + " recover " + tmp("no_such.kiji") + " >/dev/null 2>&1";
+  EXPECT_EQ(WEXITSTATUS(std::system(missing.c_str())), 1) << "a missing file is an error, not a crash";
+}

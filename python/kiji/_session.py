@@ -170,6 +170,19 @@ def _make_tool_method(info: _kiji.ToolInfo) -> Callable[..., np.ndarray]:
     return method
 
 
+def use_registry(registry: _kiji.ToolRegistry) -> None:
+    """Makes `registry` the package's default: the one every kiji.Session() uses and kiji.register_tool
+    fills, whose tools are Session methods. An app that embeds Python passes its own registry here, so
+    that a tool registered from its console joins its palette."""
+    global _registry
+    if not isinstance(registry, _kiji.ToolRegistry):
+        raise TypeError(f"use_registry: expected a kiji.ToolRegistry, not {type(registry).__name__}")
+    for tool_id in list(_installed):
+        _uninstall_tool_method(tool_id)
+    _registry = registry
+    _install_tool_methods()
+
+
 class Session(_kiji.Session):
     """A design session: garments, a body, the solver, the tools and the journal.
 
@@ -233,6 +246,23 @@ class Session(_kiji.Session):
         return self._run_stroke(tool, params, points, None, times, step, buttons, pressure, rays, orientations,
                                 progress)
 
+    # --- interactive use: one event at a time, through the same path as every stroke ---
+    def begin(self, tool: str, event: Any, /, *, user: int = 0, **params: Any) -> _kiji.Feedback:
+        """Starts a stroke of a tool (the user pressed the button): `event` is a kiji.ToolEvent('begin', ...)
+        or a pointer position (3,) at the session's clock; the tool's parameters are keyword arguments,
+        checked against its declaration and fixed for the stroke. Continue with update(event), finish
+        with end(event) or abandon with cancel(). Each user (an int) has a stroke of their own. Returns
+        the tool's Feedback (force and torque on the hand). An event later than the clock steps the
+        simulation to its time first; an error cancels the stroke (nothing is half-applied)."""
+        if not isinstance(tool, str):
+            raise TypeError(f"begin: tool must be a tool id (str), not {type(tool).__name__}")
+        return self._begin(tool, event, params, user)
+
+    def params_for(self, tool: str, /, **values: Any) -> dict:
+        """Every parameter of a tool with its value: the declared defaults overridden by `values`
+        (checked as a stroke would check them)."""
+        return self._params_for(tool, values)
+
     def __getattr__(self, name: str) -> Any:
         # A tool of this session's own registry that the class has no method for.
         if not name.startswith("_"):
@@ -243,6 +273,15 @@ class Session(_kiji.Session):
             if name in ids:
                 return _make_tool_method(self.tool_info(name)).__get__(self)
         raise AttributeError(f"'{type(self).__name__}' object has no attribute '{name}'")
+
+    def replay(self, journal: Any, *, progress: Optional[Callable[[float], Any]] = None) -> int:
+        """Replays a journal on this session, with the GIL released: a path to a journal file, a list of
+        JournalStroke (version 1: on a session set up the same way), or a list of Operation (a session's
+        log, session.operations: on a new session, or one whose log is a beginning of the list).
+        Returns the operations or strokes done."""
+        if isinstance(journal, (list, tuple)) and journal and all(isinstance(o, _kiji.Operation) for o in journal):
+            return self._replay_operations(list(journal), progress)
+        return super().replay(journal, progress=progress)
 
     def export(self, path: str | os.PathLike, garment: int = 0) -> None:
         """Writes a garment as .glb (with uv and the painted texture) or .obj (+ .mtl + .png)."""
@@ -279,6 +318,12 @@ def load(path: str | os.PathLike, *, registry: Optional[_kiji.ToolRegistry] = No
     return Session(_core=core)
 _BUILT_IN_ATTRIBUTES = set(dir(Session))
 _installed: set[str] = set()
+
+
+def _uninstall_tool_method(tool_id: str) -> None:
+    if tool_id in _installed:
+        delattr(Session, tool_id)
+        _installed.discard(tool_id)
 
 
 def _install_tool_methods() -> None:

@@ -369,7 +369,7 @@ void bind_garment(py::module_& m) {
   c.def("translate", [](Ref& r, py::handle offset) {
     const Vec3 d = to_vec3(offset, "offset");
     r.edit([&](Garment& g) { g.transform(Eigen::Affine3d(Eigen::Translation3d(d))); });
-  }, py::arg("offset"));
+  }, py::arg("offset"), "Moves every vertex by an offset (3,), metres (the rest shape is unchanged).");
   c.def("copy", [](const Ref& r) {
     auto lock = r.guard();
     return std::make_shared<Ref>(r.get()); }, "A separate copy, in no session.");

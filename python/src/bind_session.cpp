@@ -25,12 +25,6 @@ struct PyAutosave {
   ~PyAutosave() { autosave.reset(); }
 };
 
-Phase parse_phase(const std::string& name) {
-  for (Phase p : {Phase::Begin, Phase::Move, Phase::End, Phase::Cancel})
-    if (name == phase_name(p)) return p;
-  throw InputError("unknown event phase '" + name + "': use 'begin', 'move', 'end' or 'cancel'");
-}
-
 py::object param_default(const ParamSpec& s) { return param_value_to_python(s.default_value); }
 
 py::dict report_dict(const PluginReport& r) {
@@ -212,11 +206,12 @@ void bind_session(py::module_& m) {
         return out;
       }, py::arg("folders"), "Loads every plugin in the folders; one report dict per candidate.")
       .def("load_plugin", [](ToolRegistry& r, const std::string& path) { return report_dict(r.load_plugin(path)); },
-           py::arg("path"))
-      .def("ids", &ToolRegistry::ids)
-      .def("has", &ToolRegistry::has)
-      .def("info", &ToolRegistry::info)
-      .def("origin", &ToolRegistry::origin);
+           py::arg("path"), "Loads one plugin (its .json or library); a report dict saying whether and why not.")
+      .def("ids", &ToolRegistry::ids, "The ids of every tool, sorted.")
+      .def("has", &ToolRegistry::has, py::arg("id"), "Whether there is a tool of that id.")
+      .def("info", &ToolRegistry::info, py::arg("id"), "A tool's declaration (ToolInfo); InputError naming the known ids.")
+      .def("origin", &ToolRegistry::origin, py::arg("id"),
+           "Where a tool came from: a plugin library's path, 'built in', or the Python class.");
 
   // --- events ---
   py::class_<ToolEvent>(m, "ToolEvent", "One pointer sample of a stroke, as a tool receives it.")

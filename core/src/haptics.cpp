@@ -1,6 +1,7 @@
 #include "kiji/haptics.h"
 
 #include "geometry.h"
+#include "forced_unwind.h"
 #include "kiji/session.h"
 
 #include <sstream>
@@ -217,7 +218,7 @@ void HapticLoop::start() {
   lock.unlock();
   try {
     device_.start_servo_loop([this] { tick(); });
-  } catch (...) {
+  } KIJI_RETHROW_FORCED_UNWIND catch (...) {
     running_ = false;
     throw;
   }
@@ -240,7 +241,7 @@ void HapticLoop::stop() {
   }
   try {
     device_.set_force(Vec3::Zero());
-  } catch (...) {
+  } KIJI_RETHROW_FORCED_UNWIND catch (...) {
     ++device_errors_;
   }
   std::lock_guard<std::mutex> lock(stats_mutex_);
@@ -301,7 +302,7 @@ void HapticLoop::tick() {
   } catch (const std::exception& error) {
     note_error(device_errors_, std::string("the device's sample failed: ") + error.what());
     sampled = false;
-  } catch (...) {
+  } KIJI_RETHROW_FORCED_UNWIND catch (...) {
     note_error(device_errors_, "the device's sample failed with an unknown error");
     sampled = false;
   }
@@ -320,7 +321,7 @@ void HapticLoop::tick() {
       } catch (const std::exception& error) {
         force.setZero();
         note_error(tool_errors_, std::string("the tool's force callback failed: ") + error.what());
-      } catch (...) {
+      } KIJI_RETHROW_FORCED_UNWIND catch (...) {
         force.setZero();
         note_error(tool_errors_, "the tool's force callback failed with an unknown error");
       }
@@ -335,7 +336,7 @@ void HapticLoop::tick() {
   } catch (const std::exception& error) {
     note_error(device_errors_, std::string("the device's set_force failed: ") + error.what());
     out.setZero();
-  } catch (...) {
+  } KIJI_RETHROW_FORCED_UNWIND catch (...) {
     note_error(device_errors_, "the device's set_force failed with an unknown error");
     out.setZero();
   }

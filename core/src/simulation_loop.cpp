@@ -1,5 +1,6 @@
 #include "kiji/simulation_loop.h"
 
+#include "forced_unwind.h"
 #include "kiji/session.h"
 
 #include <chrono>
@@ -20,7 +21,7 @@ std::string error_text(const std::exception_ptr& error) {
     std::rethrow_exception(error);
   } catch (const std::exception& e) {
     return e.what();
-  } catch (...) {
+  } KIJI_RETHROW_FORCED_UNWIND catch (...) {
     return "an unknown error";
   }
 }
@@ -82,7 +83,7 @@ void SimulationLoop::stop() {
   for (Work& w : left) {
     try {
       w.fn(s);
-    } catch (...) {
+    } KIJI_RETHROW_FORCED_UNWIND catch (...) {
       report((w.what.empty() ? "" : w.what + ": ") + error_text(std::current_exception()));
     }
   }
@@ -110,7 +111,7 @@ void SimulationLoop::call(std::function<void(Session&)> work) {
       edited_ = true;
       publish(s);
       done->set_value();
-    } catch (...) {
+    } KIJI_RETHROW_FORCED_UNWIND catch (...) {
       done->set_exception(std::current_exception());
     }
   });
@@ -201,7 +202,7 @@ void SimulationLoop::tick() {
   for (Work& w : work) {
     try {
       w.fn(s);
-    } catch (...) {
+    } KIJI_RETHROW_FORCED_UNWIND catch (...) {
       report((w.what.empty() ? "" : w.what + ": ") + error_text(std::current_exception()));
     }
     edited_ = true;
@@ -216,7 +217,7 @@ void SimulationLoop::tick() {
   if (stepping_.load()) {
     try {
       s.step();
-    } catch (...) {
+    } KIJI_RETHROW_FORCED_UNWIND catch (...) {
       report("simulation step: " + error_text(std::current_exception()));
     }
   }
@@ -251,7 +252,7 @@ void SimulationLoop::apply_settings(Session& s) {
   if (haptics && !tools_[0].id.empty()) {
     try {
       feel = &s.tool(tools_[0].id);
-    } catch (...) {
+    } KIJI_RETHROW_FORCED_UNWIND catch (...) {
       report("tool '" + tools_[0].id + "': " + error_text(std::current_exception()));
     }
   }
@@ -290,7 +291,7 @@ void SimulationLoop::handle_device(Session& s) {
   try {
     s.apply(stroke_tool_, move);
     last_move_ = move;
-  } catch (...) {
+  } KIJI_RETHROW_FORCED_UNWIND catch (...) {
     report("'" + stroke_tool_ + "' stroke: " + error_text(std::current_exception()) +
            " (the stroke was undone)");
     stroke_button_ = 0;
@@ -330,7 +331,7 @@ void SimulationLoop::begin_stroke(Session& s, const ToolEvent& sample, std::uint
     stroke_tool_ = choice.id;
     last_move_ = begin;
     if (fed_) fed_->set_tool(&tool);
-  } catch (...) {
+  } KIJI_RETHROW_FORCED_UNWIND catch (...) {
     report("'" + choice.id + "' stroke: " + error_text(std::current_exception()) + " (nothing was changed)");
   }
   edited_ = true;
@@ -346,7 +347,7 @@ void SimulationLoop::end_stroke(Session& s, const ToolEvent& sample, Phase phase
   stroke_tool_.clear();
   try {
     if (s.stroke_active()) s.apply(tool, end);
-  } catch (...) {
+  } KIJI_RETHROW_FORCED_UNWIND catch (...) {
     report("'" + tool + "' stroke: " + error_text(std::current_exception()) + " (the stroke was undone)");
   }
   // Back to feeling the primary tool (its stroke settings are over).
@@ -364,7 +365,7 @@ void SimulationLoop::publish(Session& s) {
   std::shared_ptr<SceneFrame> f;
   try {
     f = builder_.build(s, edited_);
-  } catch (...) {
+  } KIJI_RETHROW_FORCED_UNWIND catch (...) {
     report("drawing the scene: " + error_text(std::current_exception()));
     return;
   }

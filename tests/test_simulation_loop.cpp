@@ -115,11 +115,11 @@ TEST(SimulationLoop, PublishesFramesOfTheFallingClothAtItsRate) {
   loop.start();
   const auto first = loop.frame();
   ASSERT_NE(first, nullptr);
-  sleep_ms(500);
+  // A busy machine may run it slower than 60 steps a second; it keeps publishing as it steps.
+  ASSERT_TRUE(wait_until([&] { return loop.frame()->number > first->number + 10 && loop.frame()->time > 0.2; }))
+      << "frames stopped at " << loop.frame()->number;
   const auto later = loop.frame();
   loop.stop();
-  EXPECT_GT(later->number, first->number + 10);
-  EXPECT_GT(later->time, 0.2);
   // The cloth swings down under gravity from its corners.
   EXPECT_LT(later->garments[0].bounds.min().y(), first->garments[0].bounds.min().y() - 0.01);
   EXPECT_GT(loop.stats().steps, 10u);

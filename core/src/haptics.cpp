@@ -199,7 +199,8 @@ void HapticLoop::start() {
   }
   tool_errors_ = 0;
   device_errors_ = 0;
-  begin_ = last_tick_ = ramp_start_ = Clock::now();
+  begin_ = last_tick_ = Clock::now();
+  ramp_ticks_ = 0;
   workspace_version_ = device_.workspace_version();
   last_buttons_ = 0;
   smoothed_.setZero();
@@ -277,12 +278,14 @@ Vec3 HapticLoop::shape(Vec3 force) {
   const std::uint64_t version = device_.workspace_version();
   if (version != workspace_version_) {
     workspace_version_ = version;
-    ramp_start_ = Clock::now();
+    ramp_ticks_ = 0;
   }
   double ramp = 1.0;
   if (options_.ramp_s > 0) {
-    const double x = std::clamp(
-        std::chrono::duration<double>(Clock::now() - ramp_start_).count() / options_.ramp_s, 0.0, 1.0);
+    // Counted in ticks, not read from the clock: a tick that comes late (a busy machine, a stalled
+    // servo thread) takes the ramp one tick further, never a jump.
+    const double x = std::min(double(ramp_ticks_) / (options_.rate_hz * options_.ramp_s), 1.0);
+    if (x < 1.0) ++ramp_ticks_;
     ramp = x * x * (3 - 2 * x);  // smoothstep: no jerk where the ramp starts or ends
   }
   return ramp * smoothed_;

@@ -200,12 +200,14 @@ void SimulationLoop::tick() {
   auto lock = lock_session();
   Session& s = *session_;
   for (Work& w : work) {
+    // Set before the work, so that work which publishes its own frame (call()) leaves nothing new
+    // for the end of the tick to publish.
+    edited_ = true;
     try {
       w.fn(s);
     } KIJI_RETHROW_FORCED_UNWIND catch (...) {
       report((w.what.empty() ? "" : w.what + ": ") + error_text(std::current_exception()));
     }
-    edited_ = true;
   }
   // Work may have ended the stroke (an undo cancels it).
   if (stroke_button_ && !s.stroke_active()) {

@@ -32,6 +32,8 @@
 #include <cstring>
 #include <fstream>
 #include <mutex>
+#include <pthread.h>
+#include <sched.h>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -164,6 +166,10 @@ double frame_seconds() {
 
 void scheduler_loop() {
   State& s = state();
+  // The vendor's scheduler thread runs at a real-time priority: so does this one, where allowed.
+  sched_param priority{};
+  priority.sched_priority = sched_get_priority_min(SCHED_FIFO);
+  pthread_setschedparam(pthread_self(), SCHED_FIFO, &priority);
   const auto period = std::chrono::microseconds(1000);
   auto next = Clock::now() + period;
   while (s.running.load()) {

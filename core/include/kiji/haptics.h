@@ -135,7 +135,7 @@ struct HapticOptions {
   double rate_hz = 1000;     // ticks a second of the loop's own thread (a servo-driven device keeps its own)
   double force_gain = 1.0;   // the tool's force is multiplied by this (0 to 10)
   double smoothing_s = 0.003;  // time constant of the force's low-pass filter, seconds (0: none)
-  double ramp_s = 1.0;       // seconds to ramp forces from zero to full (0: none)
+  double ramp_s = 1.0;       // seconds (of ticks at rate_hz) to ramp forces from zero to full (0: none)
   // Throws InputError naming the option out of range.
   void validate() const;
 };
@@ -226,7 +226,8 @@ class HapticLoop {
 
   // The ticking thread's own state (one thread ticks at a time).
   using Clock = std::chrono::steady_clock;
-  Clock::time_point begin_, last_tick_, ramp_start_;
+  Clock::time_point begin_, last_tick_;
+  std::uint64_t ramp_ticks_ = 0;  // ticks since the ramp began
   std::uint32_t last_buttons_ = 0;
   std::uint64_t workspace_version_ = 0;
   Vec3 smoothed_ = Vec3::Zero();

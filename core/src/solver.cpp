@@ -742,14 +742,19 @@ void Solver::step(Garment& garment, double dt) {
   else
     solver_detail::step_xpbd(s, params_, mat, body, dt);
 
-  // Refuse to write a diverged state back (the garment keeps its last good state).
+  // A diverged state is never written back: the step is undone (the garment keeps the state it
+  // had, and the arrays, whose collision margins the step left non-finite, are built again from it).
   const int diverged = first_where(static_cast<int>(n), [&](int i) {
     return s.moving[i] && (!all_finite(s.x[i]) || !all_finite(s.v[i]));
   });
   if (diverged >= 0) {
     s.built = false;
-    throw InputError("the simulation diverged (non-finite state) at vertex " + std::to_string(diverged) +
-                     ": lower dt or spring_k, or raise substeps; the garment was left as it was");
+    std::ostringstream msg;
+    msg << "the simulation of garment '" << garment.name << "' diverged at vertex " << diverged
+        << " (its position or velocity would have become infinite or NaN): the step was undone and the garment is as "
+           "it was; lower the forces or the hands' stiffness, ";
+    msg << (mass_spring ? "lower spring_k or spring_damping, " : "") << "or raise substeps (now " << params_.substeps << ")";
+    throw SimulationError(msg.str());
   }
   const bool fell_asleep = solver_detail::sleep_after_step(s, params_, dt);
   parallel::for_range(static_cast<int>(n), 4096, [&](int b, int e) {

@@ -28,6 +28,7 @@ from ._kiji import (
     JournalStroke,
     Material,
     ParamSpec,
+    SimulationError,
     SolverParams,
     StepReport,
     SurfaceHit,
@@ -63,9 +64,9 @@ __version__ = version()
 
 __all__ = [
     "Body", "Camera", "ClothMeasures", "Error", "Garment", "InputError", "JournalStroke", "Material",
-    "ParamSpec", "Session", "SolverParams", "StepReport", "SurfaceHit", "TopologyError", "ToolEvent", "ToolInfo",
-    "ToolRegistry", "JOURNAL_FILE_VERSION", "PACKAGE_PLUGIN_FOLDER", "abi_tag", "export_garment",
-    "load_garment", "load_journal", "load_plugins", "panel", "place_over_body", "plugin_folders",
-    "plugin_reports", "read_png", "rectangle", "registry", "render", "save_journal", "tool_info", "tools",
-    "version", "write_png",
+    "ParamSpec", "Session", "SimulationError", "SolverParams", "StepReport", "SurfaceHit",
+    "TopologyError", "ToolEvent", "ToolInfo", "ToolRegistry", "JOURNAL_FILE_VERSION",
+    "PACKAGE_PLUGIN_FOLDER", "abi_tag", "export_garment", "load_garment", "load_journal",
+    "load_plugins", "panel", "place_over_body", "plugin_folders", "plugin_reports", "read_png",
+    "rectangle", "registry", "render", "save_journal", "tool_info", "tools", "version", "write_png",
 ]

@@ -138,7 +138,8 @@ class Solver {
 
   // Advances the garment by dt seconds (params.substeps substeps), writing positions and velocities
   // back to the mesh. Throws InputError for dt <= 0 or non-finite, or if the garment's state is not
-  // finite before the step.
+  // finite before the step. Never writes a non-finite state: a step that would (forces or pulls too
+  // large for the time step) is undone and throws SimulationError, the garment as it was.
   void step(Garment& garment, double dt);
 
   // Total spring force on every vertex by the paper's eq. 3 (MassSpring), indexed by vertex index.

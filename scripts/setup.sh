@@ -8,7 +8,7 @@ cd "$(dirname "$0")/.."
 packages=(
   build-essential cmake ninja-build pkg-config git
   libeigen3-dev libcgal-dev libbullet-dev libassimp-dev assimp-testmodels
-  libpng-dev zlib1g-dev libgtest-dev nlohmann-json3-dev
+  libpng-dev zlib1g-dev libgtest-dev nlohmann-json3-dev libglib2.0-dev
   python3 python3-dev python3-venv
 )
 
@@ -29,6 +29,7 @@ scripts/setup_python.sh --venv
 # converting NumPy 2 arrays), so that `pip install .` below finds everything already built.
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DKIJI_BUILD_PYTHON=ON \
   -DPython_EXECUTABLE="$PWD/.venv/bin/python" \
-  -Dpybind11_DIR="$(.venv/bin/python -m pybind11 --cmakedir)" >/dev/null
+  -Dpybind11_DIR="$(.venv/bin/python -m pybind11 --cmakedir)" \
+  -Dlcm_DIR="$(.venv/bin/python -c 'import lcm, os; print(os.path.join(os.path.dirname(os.path.dirname(lcm.__file__)), "lib", "lcm", "cmake"))')" >/dev/null
 cmake --build build -j "$(nproc)"
 scripts/setup_python.sh

@@ -14,10 +14,12 @@ if [ ! -x "$venv/bin/python" ]; then
   echo "kiji setup: creating the virtual environment $venv with $($python --version 2>&1)"
   "$python" -m venv "$venv"
 fi
-if ! "$venv/bin/python" -c "import numpy, pytest, pybind11, scikit_build_core" 2>/dev/null; then
-  echo "kiji setup: installing numpy, pytest, pybind11 and scikit-build-core into $venv"
+# lcm: PyPI's wheel carries the C++ library, lcm-gen and a CMake config that the build uses (Debian's
+# liblcm is too old and has none of them).
+if ! "$venv/bin/python" -c "import numpy, pytest, pybind11, scikit_build_core, lcm" 2>/dev/null; then
+  echo "kiji setup: installing numpy, pytest, pybind11, scikit-build-core and lcm into $venv"
   "$venv/bin/python" -m pip install -q --upgrade pip
-  "$venv/bin/python" -m pip install -q numpy pytest "pybind11>=2.12" "scikit-build-core>=0.10"
+  "$venv/bin/python" -m pip install -q numpy pytest "pybind11>=2.12" "scikit-build-core>=0.10" "lcm>=1.5.3,<1.6"
 fi
 [ "${1:-}" = "--venv" ] && exit 0
 

@@ -89,7 +89,7 @@ TEST(HapticLoop, RunsAtRealTimePriorityWhereTheSystemAllowsIt) {
 TEST(HapticLoop, FeedsThePinchSpringBackToTheDevice) {
   Session s(plugins());
   s.add_garment(make_rectangle(1.0, 1.0, 21, 21));
-  s.simulating = false;
+  s.set_simulating(false);
   ParamSet p = s.params_for("pinch", {{"stiffness", 40.0}});
   s.apply("pinch", at(Vec3(0.5, 0.5, 0.0), Phase::Begin), &p);
   const Vec3 hand(0.5, 0.5, 0.05);
@@ -117,7 +117,7 @@ TEST(HapticLoop, FeedsThePinchSpringBackToTheDevice) {
 TEST(HapticLoop, ClampsToTheDevicesMaximumForce) {
   Session s(plugins());
   s.add_garment(make_rectangle(1.0, 1.0, 11, 11));
-  s.simulating = false;
+  s.set_simulating(false);
   ParamSet p = s.params_for("pinch", {{"stiffness", 1e5}});
   s.apply("pinch", at(Vec3(0.5, 0.5, 0.0), Phase::Begin), &p);
   const Vec3 hand(0.5, 0.5, 0.3);

@@ -191,7 +191,7 @@ TEST_F(PluginLoaderTest, GoodPluginRunsAStrokeThroughASession) {
   auto registry = std::make_shared<ToolRegistry>();
   ASSERT_TRUE(registry->load_plugin(kGoodLibrary.string()).loaded);
   kiji::Session session(registry);
-  session.simulating = false;
+  session.set_simulating(false);
   session.add_garment(kiji::make_rectangle(1.0, 1.0, 5, 5));
   const kiji::Vertex v(12);  // the middle of the 5 x 5 grid
   const kiji::Vec3 start = session.garment(0).position(v);
@@ -208,8 +208,8 @@ TEST_F(PluginLoaderTest, GoodPluginRunsAStrokeThroughASession) {
   const kiji::ParamSet params = session.params_for("probe", {{"height", 0.1}, {"repeat", 2LL}});
   session.run("probe", params, stroke);
   EXPECT_NEAR((session.garment(0).position(v) - (start + kiji::Vec3(0, 0.2, 0))).norm(), 0.0, 1e-12);
-  ASSERT_EQ(session.journal().entries().size(), 1u);
-  EXPECT_EQ(session.journal().entries()[0].tool, "probe");
+  ASSERT_EQ(session.journal().entries().size(), 2u) << "the garment added, then the stroke";
+  EXPECT_EQ(session.journal().entries().back().tool, "probe");
   EXPECT_TRUE(session.undo());
   EXPECT_NEAR((session.garment(0).position(v) - start).norm(), 0.0, 1e-12);
 

@@ -18,6 +18,7 @@ const char* kUsage =
     "  drape     drop a flat garment on a body, let it settle, write the result\n"
     "  tools     list the tool plugins found, with their parameters\n"
     "  bench     measure this machine: the paper's tables, Bullet's cloth, haptics, scaling\n"
+    "  recover   rebuild a design session from its session file (an autosave) after a crash\n"
     "  version   print Kiji's version\n"
     "\n"
     "'kiji COMMAND --help' describes a command's options.\n";
@@ -36,6 +37,7 @@ int main(int argc, char** argv) {
     if (command == "drape") return kiji::cli::drape_command(args);
     if (command == "tools") return kiji::cli::tools_command(args);
     if (command == "bench") return kiji::cli::bench_command(args);
+    if (command == "recover") return kiji::cli::recover_command(args);
     if (command == "version" || command == "--version") {
       std::printf("kiji %s\n", kiji::version());
       return 0;

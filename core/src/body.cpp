@@ -30,7 +30,7 @@ std::string axis_name(Axis axis) {
 }
 
 Body Body::from_triangles(std::vector<Vec3> vertices, std::vector<std::array<int, 3>> triangles,
-                          std::string name) {
+                          std::string name, BodyImportReport report) {
   if (triangles.empty())
     throw InputError("body '" + name + "' has no triangles: a body needs a surface to drape on");
   for (std::size_t i = 0; i < vertices.size(); ++i) {
@@ -51,6 +51,7 @@ Body Body::from_triangles(std::vector<Vec3> vertices, std::vector<std::array<int
   b.name_ = std::move(name);
   b.vertices_ = std::move(vertices);
   b.triangles_ = std::move(triangles);
+  b.report_ = std::move(report);
   static std::atomic<std::uint64_t> last_id{0};
   b.geometry_id_ = ++last_id;
   return b;

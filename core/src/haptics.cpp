@@ -41,6 +41,24 @@ SurfaceHit HapticSnapshot::nearest(const Vec3& p) const {
   return best;
 }
 
+Feedback haptic_model_force(const HapticModel& model, const HapticSnapshot& snapshot, const ToolEvent& event) {
+  Feedback f;
+  if (const auto* spring = std::get_if<HapticSpring>(&model)) {
+    if (spring->vertices.empty() || snapshot.garment != spring->garment) return f;
+    const double k = spring->stiffness / double(spring->vertices.size());
+    for (std::size_t i = 0; i < spring->vertices.size(); ++i)
+      if (const Vec3* x = snapshot.position_of(spring->vertices[i]))
+        f.force += k * (*x - spring->offsets[i] - event.position);
+  } else if (const auto* push = std::get_if<HapticPush>(&model)) {
+    const SurfaceHit hit = snapshot.nearest(event.position);
+    if (!hit.hit || hit.distance > push->touch) return f;
+    Vec3 n = hit.normal;
+    if ((event.position - hit.point).dot(n) < 0) n = -n;
+    f.force = push->stiffness * (push->touch - hit.distance) * n;
+  }
+  return f;
+}
+
 HapticSnapshot take_snapshot(const Session& session, std::size_t garment, const Vec3& center, double radius) {
   HapticSnapshot s;
   const Garment& g = session.garment(garment);

@@ -202,15 +202,17 @@ PluginReport ToolRegistry::load_plugin(const std::string& path) {
   return report;
 }
 
-void ToolRegistry::add(const std::string& id, ToolFactory factory) {
+void ToolRegistry::add(const std::string& id, ToolFactory factory, std::string origin) {
   if (tools_.count(id)) throw InputError("tool id '" + id + "' is already taken by " + tools_.at(id).origin);
   Entry e;
   e.info = factory()->info();
   if (e.info.id != id) throw InputError("tool registered as '" + id + "' says its id is '" + e.info.id + "'");
-  e.origin = "built in";
+  e.origin = std::move(origin);
   e.factory = std::move(factory);
   tools_.emplace(id, std::move(e));
 }
+
+bool ToolRegistry::remove(const std::string& id) { return tools_.erase(id) > 0; }
 
 bool ToolRegistry::has(const std::string& id) const { return tools_.count(id) > 0; }
 

@@ -1,15 +1,31 @@
 #include "kiji/session.h"
 
-#include "geometry.h"
+#include "overloaded.h"
 #include "kiji/error.h"
-#include "parallel.h"
+#include "kiji/pick.h"
 
-#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <vector>
 
 namespace kiji {
+
+namespace {
+
+using detail::Overloaded;
+
+std::shared_ptr<const std::string> shared_bytes(std::string bytes) {
+  return std::make_shared<const std::string>(std::move(bytes));
+}
+
+ToolEvent phase_event(Phase phase, double time) {
+  ToolEvent e;
+  e.phase = phase;
+  e.time = time;
+  return e;
+}
+
+}  // namespace
 
 struct Session::ActiveStroke {
   Tool* tool = nullptr;
@@ -27,12 +43,24 @@ Session::Session(std::shared_ptr<ToolRegistry> registry) : registry_(std::move(r
 
 Session::~Session() = default;
 
-std::size_t Session::add_garment(Garment garment) {
+// --- scene ---
+
+std::size_t Session::add_garment(const Garment& garment) {
   garment.validate();
-  garments_.push_back(std::move(garment));
-  solvers_.push_back(std::make_unique<Solver>(solver_params_));
-  solvers_.back()->set_body(body());
+  Operation op{steps_, 0, op::AddGarment{shared_bytes(encode_garment(garment))}};
+  perform(op);
   return garments_.size() - 1;
+}
+
+void Session::remove_garment(std::size_t index) {
+  this->garment(index);
+  perform({steps_, 0, op::RemoveGarment{static_cast<std::uint32_t>(index)}});
+}
+
+void Session::set_garment(std::size_t index, const Garment& garment) {
+  this->garment(index);
+  garment.validate();
+  perform({steps_, 0, op::SetGarment{static_cast<std::uint32_t>(index), shared_bytes(encode_garment(garment))}});
 }
 
 Garment& Session::garment(std::size_t index) {
@@ -45,8 +73,9 @@ Garment& Session::garment(std::size_t index) {
 const Garment& Session::garment(std::size_t index) const { return const_cast<Session*>(this)->garment(index); }
 
 void Session::set_body(std::optional<Body> body) {
-  body_ = std::move(body);
-  for (auto& s : solvers_) s->set_body(this->body());
+  op::SetBody b;
+  if (body) b.body = shared_bytes(encode_body(*body));
+  perform({steps_, 0, std::move(b)});
 }
 
 Solver& Session::solver(std::size_t index) {
@@ -54,10 +83,11 @@ Solver& Session::solver(std::size_t index) {
   return *solvers_[index];
 }
 
+const Solver& Session::solver(std::size_t index) const { return const_cast<Session*>(this)->solver(index); }
+
 void Session::set_solver_params(const SolverParams& params) {
   params.validate();
-  solver_params_ = params;
-  for (auto& s : solvers_) s->set_params(params);
+  perform({steps_, 0, op::SetSolverParams{params}});
 }
 
 void Session::set_frame_rate(double steps_per_second) {
@@ -66,113 +96,57 @@ void Session::set_frame_rate(double steps_per_second) {
     msg << "frame rate " << steps_per_second << " is out of range: use 1 to 10000 steps a second";
     throw InputError(msg.str());
   }
-  frame_rate_ = steps_per_second;
+  perform({steps_, 0, op::SetFrameRate{steps_per_second}});
 }
+
+void Session::set_simulating(bool simulating) { perform({steps_, 0, op::SetSimulating{simulating}}); }
+
+void Session::set_pick_radius(double metres) {
+  if (!std::isfinite(metres) || metres <= 0 || metres > 10) {
+    std::ostringstream msg;
+    msg << "pick radius " << metres << " m is out of range: use more than 0 and at most 10 m";
+    throw InputError(msg.str());
+  }
+  perform({steps_, 0, op::SetPickRadius{metres}});
+}
+
+// --- clock ---
 
 void Session::step() {
   const double dt = 1.0 / frame_rate_;
-  if (simulating)
+  if (simulating_)
     for (std::size_t i = 0; i < garments_.size(); ++i) solvers_[i]->step(garments_[i], dt);
   time_ += dt;
+  ++steps_;
 }
 
 void Session::advance_to(double t) {
   if (!std::isfinite(t)) throw InputError("event time is not a finite number");
+  if (t - time_ > max_advance_seconds) {
+    std::ostringstream msg;
+    msg << "time " << t << " s is " << (t - time_) << " s after the session's clock (" << time_
+        << " s): the clock steps at most " << max_advance_seconds << " s ahead at once";
+    throw InputError(msg.str());
+  }
   // A small tolerance so that t = n / frame_rate does not take an extra step to rounding.
   while (time_ + 1e-9 < t) step();
 }
 
+void Session::advance_to_step(std::uint64_t step) {
+  if (step < steps_)
+    throw InputError("an operation for step " + std::to_string(step) + " came when the session is at step " +
+                     std::to_string(steps_) + ": operations apply in the order they were made");
+  if (double(step - steps_) > max_advance_seconds * frame_rate_)
+    throw InputError("an operation for step " + std::to_string(step) + " is more than " +
+                     std::to_string(int(max_advance_seconds)) + " s after the session's step " +
+                     std::to_string(steps_));
+  while (steps_ < step) this->step();
+}
+
+// --- picking and tools ---
+
 SurfaceHit Session::pick(const Vec3& position, const Vec3& ray) const {
-  SurfaceHit best;
-  if (!all_finite(position) || !all_finite(ray)) return best;
-  const bool use_ray = ray.squaredNorm() > 0;
-  const Vec3 dir = use_ray ? Vec3(ray.normalized()) : Vec3::Zero();
-  const double reach = 1e3;
-  // Each vertex's side of the ray's line (or of the box within pick_radius of the point), in a
-  // mask of six bits: a triangle whose three corners share a bit is wholly to one side, missed,
-  // with no test of its own. The few left are tested exactly.
-  Vec3 e1 = Vec3::UnitX(), e2 = Vec3::UnitY(), e3 = Vec3::UnitZ();
-  if (use_ray) {
-    e3 = dir;
-    e1 = dir.unitOrthogonal();
-    e2 = e3.cross(e1);
-  }
-  const Vec3 lo = use_ray ? Vec3(0, 0, 0) : Vec3::Constant(-pick_radius);
-  const Vec3 hi = use_ray ? Vec3(0, 0, reach) : Vec3::Constant(pick_radius);
-  // In parallel, in pieces of the face indices: each piece keeps its nearest hit (the first of
-  // equals), and the pieces' are taken in order, as one loop over the faces would; the winner's
-  // normal, uv and nearest corner are filled in after.
-  for (std::size_t gi = 0; gi < garments_.size(); ++gi) {
-    const Garment& g = garments_[gi];
-    const Mesh& m = g.mesh();
-    const int nv = static_cast<int>(g.vertex_capacity());
-    const int nf = static_cast<int>(m.number_of_faces() + m.number_of_removed_faces());
-    std::vector<unsigned char> side(nv, 0);
-    parallel::for_range(nv, 4096, [&](int b0, int b1) {
-      for (int i = b0; i < b1; ++i) {
-        const Vertex v(i);
-        if (m.is_removed(v)) continue;
-        const Vec3 r = g.position(v) - position;
-        const Vec3 q(r.dot(e1), r.dot(e2), r.dot(e3));
-        const double tol = 1e-9 * (1 + r.cwiseAbs().maxCoeff());  // the projections' rounding, well covered
-        unsigned char bits = 0;
-        for (int k = 0; k < 3; ++k)
-          bits |= static_cast<unsigned char>(((q[k] < lo[k] - tol) << (2 * k)) | ((q[k] > hi[k] + tol) << (2 * k + 1)));
-        side[i] = bits;
-      }
-    });
-    const int pieces = parallel::piece_count(nf, 4096);
-    std::vector<SurfaceHit> found(pieces);
-    parallel::for_each(pieces, [&](int piece) {
-      SurfaceHit& mine = found[piece];
-      for (int fi = parallel::piece_begin(nf, piece, pieces), fe = parallel::piece_begin(nf, piece + 1, pieces);
-           fi < fe; ++fi) {
-        const Face f(fi);
-        if (m.is_removed(f)) continue;
-        const Halfedge h0 = m.halfedge(f), h1 = m.next(h0), h2 = m.next(h1);
-        if (side[m.target(h0).idx()] & side[m.target(h1).idx()] & side[m.target(h2).idx()]) continue;
-        const Vec3 a = g.position(m.target(h0)), b = g.position(m.target(h1)), c = g.position(m.target(h2));
-        Vec3 point, bary;
-        double distance;
-        if (use_ray) {
-          double t = 0;
-          if (!geom::segment_crosses_triangle(position, position + reach * dir, a, b, c, t)) continue;
-          point = position + t * reach * dir;
-          const geom::ClosestPoint cp = geom::closest_on_triangle(point, a, b, c);
-          bary = Vec3(cp.b0, cp.b1, cp.b2);
-          distance = t * reach;
-        } else {
-          const geom::ClosestPoint cp = geom::closest_on_triangle(position, a, b, c);
-          point = cp.point;
-          bary = Vec3(cp.b0, cp.b1, cp.b2);
-          distance = (point - position).norm();
-          if (distance > pick_radius) continue;
-        }
-        if (distance >= mine.distance) continue;
-        mine.hit = true;
-        mine.garment = gi;
-        mine.face = f;
-        mine.barycentric = bary;
-        mine.point = point;
-        mine.distance = distance;
-      }
-    });
-    for (const SurfaceHit& mine : found)
-      if (mine.distance < best.distance) best = mine;
-  }
-  if (!best.hit) return best;
-  const Garment& g = garments_[best.garment];
-  const Mesh& m = g.mesh();
-  const Halfedge h0 = m.halfedge(best.face), h1 = m.next(h0), h2 = m.next(h1);
-  const Vec3 a = g.position(m.target(h0)), b = g.position(m.target(h1)), c = g.position(m.target(h2));
-  const Vec3& bary = best.barycentric;
-  const Vec3 n = (b - a).cross(c - a);
-  best.normal = n.norm() > 0 ? Vec3(n.normalized()) : Vec3(0, 1, 0);
-  best.uv = bary[0] * g.uv(h0) + bary[1] * g.uv(h1) + bary[2] * g.uv(h2);
-  int k = 0;
-  bary.maxCoeff(&k);
-  best.nearest = m.target(k == 0 ? h0 : (k == 1 ? h1 : h2));
-  return best;
+  return kiji::pick(garments_, position, ray, pick_radius_);
 }
 
 ParamSet Session::params_for(const std::string& tool_id, const std::map<std::string, ParamValue>& values) const {
@@ -181,59 +155,88 @@ ParamSet Session::params_for(const std::string& tool_id, const std::map<std::str
   return p;
 }
 
-Tool& Session::tool(const std::string& id) {
-  auto it = tool_instances_.find(id);
+Tool& Session::tool(const std::string& id, UserId user) {
+  const auto key = std::make_pair(user, id);
+  auto it = tool_instances_.find(key);
   if (it != tool_instances_.end()) return *it->second;
   auto created = registry_->create(id);
   Tool& t = *created;
-  tool_instances_.emplace(id, std::move(created));
+  tool_instances_.emplace(key, std::move(created));
   return t;
 }
 
-const std::string& Session::active_tool() const {
+std::vector<UserId> Session::active_users() const {
+  std::vector<UserId> out;
+  for (const auto& [user, stroke] : active_) out.push_back(user);
+  return out;
+}
+
+const std::string& Session::active_tool(UserId user) const {
   static const std::string none;
-  return active_ ? active_->id : none;
+  auto it = active_.find(user);
+  return it != active_.end() ? it->second->id : none;
 }
 
-std::vector<Garment> Session::snapshot() const { return garments_; }
+GarmentSnapshot Session::snapshot() const { return GarmentSnapshot(garments_, journal_.latest_snapshot()); }
 
-void Session::restore(const std::vector<Garment>& garments) {
-  // Assignment gives every garment a fresh topology version, so every solver rebuilds its arrays.
-  garments_ = garments;
-  solvers_.resize(garments_.size());
-  for (auto& s : solvers_) {
-    if (!s) s = std::make_unique<Solver>(solver_params_);
-    s->set_body(body());
+void Session::restore(const GarmentSnapshot& snapshot) {
+  // Assignment gives every garment a fresh topology version, so every solver rebuilds its arrays. A
+  // different number of garments gets new solvers throughout: each solver's arrays follow its index.
+  const bool same_count = snapshot.size() == garments_.size();
+  garments_ = snapshot.garments();
+  if (!same_count) {
+    solvers_.clear();
+    for (std::size_t i = 0; i < garments_.size(); ++i) solvers_.push_back(std::make_unique<Solver>(solver_params_));
   }
+  for (auto& s : solvers_) s->set_body(body());
 }
 
-Feedback Session::apply(const std::string& tool_id, const ToolEvent& event, const ParamSet* params) {
-  return apply(tool(tool_id), event, params);
+Feedback Session::apply(const std::string& tool_id, const ToolEvent& event, const ParamSet* params, UserId user) {
+  return apply(tool(tool_id, user), event, params, user);
 }
 
-Feedback Session::apply(Tool& tool, const ToolEvent& event_in, const ParamSet* params) {
-  const std::string id = tool.info().id;
-  if (!all_finite(event_in.position) || !all_finite(event_in.ray) || !std::isfinite(event_in.time) ||
-      !std::isfinite(event_in.pressure) || !event_in.orientation.coeffs().allFinite())
+Feedback Session::apply(Tool& tool, const ToolEvent& event, const ParamSet* params, UserId user) {
+  op::ToolInput input;
+  input.tool = tool.info().id;
+  input.event = event;
+  input.event.hit = SurfaceHit{};
+  if (event.phase == Phase::Begin && params) input.params = params->values();
+  return do_tool(tool, input, params, user, /*rethrow=*/true);
+}
+
+Feedback Session::do_tool(Tool& tool, const op::ToolInput& input, const ParamSet* params, UserId user, bool rethrow) {
+  const std::string& id = input.tool;
+  const ToolEvent& in = input.event;
+  if (!all_finite(in.position) || !all_finite(in.ray) || !std::isfinite(in.time) || !std::isfinite(in.pressure) ||
+      !in.orientation.coeffs().allFinite())
     throw InputError("tool event for '" + id + "' has a coordinate, time or pressure that is not a finite number");
-  if (event_in.phase == Phase::Begin) {
-    if (active_)
-      throw InputError("a '" + active_->id + "' stroke is in progress: end or cancel it before starting '" + id + "'");
+  if (!(in.pressure >= 0 && in.pressure <= 1))
+    throw InputError("tool event for '" + id + "' has pressure " + std::to_string(in.pressure) + ": use 0 to 1");
+  auto it = active_.find(user);
+  if (in.phase == Phase::Begin) {
+    if (it != active_.end())
+      throw InputError("a '" + it->second->id + "' stroke is in progress: end or cancel it before starting '" + id + "'");
     if (!params) throw InputError("a '" + id + "' stroke begins without parameters");
   } else {
-    if (!active_) throw InputError(std::string("a '") + phase_name(event_in.phase) + "' event for '" + id +
-                                   "' came without a stroke: a stroke starts with a begin event");
-    if (active_->tool != &tool)
-      throw InputError("a '" + id + "' event came during a '" + active_->id + "' stroke");
+    if (it == active_.end())
+      throw InputError(std::string("a '") + phase_name(in.phase) + "' event for '" + id +
+                       "' came without a stroke: a stroke starts with a begin event");
+    if (it->second->tool != &tool) throw InputError("a '" + id + "' event came during a '" + it->second->id + "' stroke");
   }
-  if (event_in.time > time_) advance_to(event_in.time);
-  ToolEvent event = event_in;
+  if (in.time > time_) advance_to(in.time);
+  ToolEvent event = in;
   event.hit = pick(event.position, event.ray);
+  Operation logged{steps_, user, input};
 
   if (event.phase == Phase::Cancel) {
-    auto stroke = std::move(active_);
-    tool.cancel(*this);
+    auto stroke = std::move(it->second);
+    active_.erase(it);
+    try {
+      tool.cancel(*this);
+    } catch (...) {  // the garments go back all the same
+    }
     restore(stroke->entry.before);
+    log(std::move(logged));
     return {};
   }
   if (event.phase == Phase::Begin) {
@@ -242,68 +245,200 @@ Feedback Session::apply(Tool& tool, const ToolEvent& event_in, const ParamSet* p
     stroke->id = id;
     stroke->params = *params;
     stroke->entry.tool = id;
+    stroke->entry.user = user;
     stroke->entry.params = params->values();
     stroke->entry.before = snapshot();
-    active_ = std::move(stroke);
+    it = active_.emplace(user, std::move(stroke)).first;
   }
-  active_->entry.events.push_back(event);
+  ActiveStroke& active = *it->second;
+  active.entry.events.push_back(event);
+  Feedback feedback;
   try {
     switch (event.phase) {
-      case Phase::Begin: return tool.begin(*this, active_->params, event);
-      case Phase::Move: return tool.update(*this, event);
-      case Phase::End: {
-        tool.end(*this, event);
-        auto stroke = std::move(active_);
-        stroke->entry.after = snapshot();
-        journal_.push(std::move(stroke->entry));
-        return {};
-      }
+      case Phase::Begin: feedback = tool.begin(*this, active.params, event); break;
+      case Phase::Move: feedback = tool.update(*this, event); break;
+      case Phase::End: tool.end(*this, event); break;
       case Phase::Cancel: break;
     }
   } catch (...) {
-    // Nothing half-applied: the garments go back to where the stroke began.
-    auto stroke = std::move(active_);
+    // Nothing half-applied: the garments go back to where the stroke began. The event is logged all
+    // the same: replayed, it fails again and is undone again, so the replay takes the same path.
+    auto stroke = std::move(it->second);
+    active_.erase(it);
     try {
       tool.cancel(*this);
     } catch (...) {
     }
     restore(stroke->entry.before);
-    throw;
+    log(std::move(logged));
+    if (rethrow) throw;
+    return {};
   }
-  return {};
+  if (event.phase == Phase::End) {
+    auto stroke = std::move(it->second);
+    active_.erase(it);
+    stroke->entry.after = snapshot();
+    journal_.push(std::move(stroke->entry));
+  }
+  log(std::move(logged));
+  return feedback;
 }
 
-void Session::run(const std::string& tool_id, const ParamSet& params, const Stroke& stroke) {
-  run(tool(tool_id), params, stroke);
+void Session::run(const std::string& tool_id, const ParamSet& params, const Stroke& stroke, UserId user) {
+  run(tool(tool_id, user), params, stroke, user);
 }
 
-void Session::run(Tool& tool, const ParamSet& params, const Stroke& stroke) {
+void Session::run(Tool& tool, const ParamSet& params, const Stroke& stroke, UserId user) {
   if (stroke.empty() || stroke.front().phase != Phase::Begin)
     throw InputError("a stroke for '" + tool.info().id + "' must start with a begin event");
-  for (const ToolEvent& e : stroke) apply(tool, e, &params);
+  for (const ToolEvent& e : stroke) {
+    apply(tool, e, &params, user);
+    if (!stroke_active(user)) return;  // an End or Cancel closed it
+  }
   // A stroke that stops without End or Cancel is finished, as a released button would.
-  if (active_) {
-    ToolEvent end = stroke.back();
-    end.phase = Phase::End;
-    apply(tool, end, &params);
+  ToolEvent end = stroke.back();
+  end.phase = Phase::End;
+  apply(tool, end, &params, user);
+}
+
+void Session::cancel_all_strokes() {
+  while (!active_.empty()) {
+    const auto& [user, stroke] = *active_.begin();
+    apply(*stroke->tool, phase_event(Phase::Cancel, time_), nullptr, user);
   }
 }
 
+// --- operations ---
+
+Feedback Session::perform(const Operation& operation) {
+  advance_to_step(operation.step);
+  const UserId user = operation.user;
+  return std::visit(
+      Overloaded{
+          [&](const op::ToolInput& t) -> Feedback {
+            if (t.event.phase == Phase::Begin) {
+              const ParamSet params = params_for(t.tool, t.params);
+              return do_tool(tool(t.tool, user), t, &params, user, /*rethrow=*/false);
+            }
+            return do_tool(tool(t.tool, user), t, nullptr, user, /*rethrow=*/false);
+          },
+          [&](const op::AddGarment& a) -> Feedback {
+            if (!a.garment) throw InputError("an add_garment operation carries no garment");
+            Garment g = decode_garment(*a.garment);
+            JournalEntry entry{"add_garment", user, {}, {}, snapshot(), {}};
+            garments_.push_back(std::move(g));
+            solvers_.push_back(std::make_unique<Solver>(solver_params_));
+            solvers_.back()->set_body(body());
+            entry.after = snapshot();
+            journal_.push(std::move(entry));
+            log(operation);
+            return {};
+          },
+          [&](const op::RemoveGarment& r) -> Feedback {
+            garment(r.index);
+            cancel_all_strokes();
+            JournalEntry entry{"remove_garment", user, {}, {}, snapshot(), {}};
+            garments_.erase(garments_.begin() + r.index);
+            solvers_.clear();
+            for (std::size_t i = 0; i < garments_.size(); ++i) {
+              solvers_.push_back(std::make_unique<Solver>(solver_params_));
+              solvers_.back()->set_body(body());
+            }
+            entry.after = snapshot();
+            journal_.push(std::move(entry));
+            log(operation);
+            return {};
+          },
+          [&](const op::SetGarment& s) -> Feedback {
+            garment(s.index);
+            if (!s.garment) throw InputError("a set_garment operation carries no garment");
+            Garment g = decode_garment(*s.garment);
+            JournalEntry entry{"set_garment", user, {}, {}, snapshot(), {}};
+            garments_[s.index] = std::move(g);
+            entry.after = snapshot();
+            journal_.push(std::move(entry));
+            log(operation);
+            return {};
+          },
+          [&](const op::SetBody& b) -> Feedback {
+            // A new object for every body, so that a solver never mistakes it for the one it had.
+            std::shared_ptr<const Body> body = b.body ? std::make_shared<const Body>(decode_body(*b.body)) : nullptr;
+            for (auto& s : solvers_) s->set_body(body.get());
+            body_ = std::move(body);
+            log(operation);
+            return {};
+          },
+          [&](const op::SetSolverParams& p) -> Feedback {
+            p.params.validate();
+            for (auto& s : solvers_) s->set_params(p.params);
+            solver_params_ = p.params;
+            log(operation);
+            return {};
+          },
+          [&](const op::SetFrameRate& f) -> Feedback {
+            if (!std::isfinite(f.steps_per_second) || f.steps_per_second < 1 || f.steps_per_second > 10000)
+              throw InputError("a set_frame_rate operation is out of range: 1 to 10000 steps a second");
+            frame_rate_ = f.steps_per_second;
+            log(operation);
+            return {};
+          },
+          [&](const op::SetSimulating& s) -> Feedback {
+            simulating_ = s.simulating;
+            log(operation);
+            return {};
+          },
+          [&](const op::SetPickRadius& p) -> Feedback {
+            if (!std::isfinite(p.radius) || p.radius <= 0 || p.radius > 10)
+              throw InputError("a set_pick_radius operation is out of range: more than 0 and at most 10 m");
+            pick_radius_ = p.radius;
+            log(operation);
+            return {};
+          },
+          [&](const op::Undo&) -> Feedback {
+            cancel_all_strokes();
+            if (!journal_.can_undo()) return {};
+            restore(journal_.undo().before);
+            log(operation);
+            return {};
+          },
+          [&](const op::Redo&) -> Feedback {
+            cancel_all_strokes();
+            if (!journal_.can_redo()) return {};
+            restore(journal_.redo().after);
+            log(operation);
+            return {};
+          },
+          [&](const op::Advance&) -> Feedback {
+            log(operation);
+            return {};
+          }},
+      operation.data);
+}
+
+void Session::log(Operation op) {
+  journal_.record(op);
+  for (auto& [id, listener] : listeners_) listener(journal_.operations().back());
+}
+
+int Session::add_listener(OperationListener listener) {
+  const int id = next_listener_++;
+  listeners_.emplace(id, std::move(listener));
+  return id;
+}
+
+void Session::remove_listener(int id) { listeners_.erase(id); }
+
 bool Session::undo() {
-  if (active_) {
-    ToolEvent cancel;
-    cancel.phase = Phase::Cancel;
-    cancel.time = time_;
-    apply(*active_->tool, cancel);
-  }
+  cancel_all_strokes();
   if (!journal_.can_undo()) return false;
-  restore(journal_.undo().before);
+  perform({steps_, 0, op::Undo{}});
   return true;
 }
 
 bool Session::redo() {
-  if (active_ || !journal_.can_redo()) return false;
-  restore(journal_.redo().after);
+  cancel_all_strokes();
+  if (!journal_.can_redo()) return false;
+  perform({steps_, 0, op::Redo{}});
   return true;
 }
 

@@ -170,6 +170,19 @@ def _make_tool_method(info: _kiji.ToolInfo) -> Callable[..., np.ndarray]:
     return method
 
 
+def use_registry(registry: _kiji.ToolRegistry) -> None:
+    """Makes `registry` the package's default: the one every kiji.Session() uses and kiji.register_tool
+    fills, whose tools are Session methods. An app that embeds Python passes its own registry here, so
+    that a tool registered from its console joins its palette."""
+    global _registry
+    if not isinstance(registry, _kiji.ToolRegistry):
+        raise TypeError(f"use_registry: expected a kiji.ToolRegistry, not {type(registry).__name__}")
+    for tool_id in list(_installed):
+        _uninstall_tool_method(tool_id)
+    _registry = registry
+    _install_tool_methods()
+
+
 class Session(_kiji.Session):
     """A design session: garments, a body, the solver, the tools and the journal.
 
@@ -180,14 +193,30 @@ class Session(_kiji.Session):
     """
 
     def __init__(self, body: Optional[_kiji.Body] = None, *, registry: Optional[_kiji.ToolRegistry] = None,
-                 solver: Optional[_kiji.SolverParams] = None, frame_rate: Optional[float] = None) -> None:
-        super().__init__(registry if registry is not None else _registry)
+                 solver: Optional[_kiji.SolverParams] = None, frame_rate: Optional[float] = None,
+                 autosave: Optional[str | os.PathLike] = None, _core: Optional[_kiji.Session] = None) -> None:
+        """A new session (or, with _core, a handle on an existing one). With autosave=PATH every
+        operation is appended to that session file as it is applied, flushed before the call that made
+        it returns; kiji.recover(PATH) rebuilds the session after a crash. A PATH that already holds a
+        session is refused rather than overwritten."""
+        if _core is not None:
+            super().__init__(_core)
+        else:
+            super().__init__(registry if registry is not None else _registry)
+        self._autosave = None
+        if autosave is not None:
+            self._autosave = self._start_autosave(os.fspath(autosave))
         if body is not None:
             self.body = body
         if solver is not None:
             self.solver_params = solver
         if frame_rate is not None:
             self.frame_rate = frame_rate
+
+    @property
+    def autosave(self) -> Optional[str]:
+        """The session file every operation is appended to, or None."""
+        return self._autosave.path if self._autosave is not None else None
 
     def tools(self) -> list[_kiji.ToolInfo]:
         """The tools of this session, with their declared parameters."""
@@ -217,6 +246,23 @@ class Session(_kiji.Session):
         return self._run_stroke(tool, params, points, None, times, step, buttons, pressure, rays, orientations,
                                 progress)
 
+    # --- interactive use: one event at a time, through the same path as every stroke ---
+    def begin(self, tool: str, event: Any, /, *, user: int = 0, **params: Any) -> _kiji.Feedback:
+        """Starts a stroke of a tool (the user pressed the button): `event` is a kiji.ToolEvent('begin', ...)
+        or a pointer position (3,) at the session's clock; the tool's parameters are keyword arguments,
+        checked against its declaration and fixed for the stroke. Continue with update(event), finish
+        with end(event) or abandon with cancel(). Each user (an int) has a stroke of their own. Returns
+        the tool's Feedback (force and torque on the hand). An event later than the clock steps the
+        simulation to its time first; an error cancels the stroke (nothing is half-applied)."""
+        if not isinstance(tool, str):
+            raise TypeError(f"begin: tool must be a tool id (str), not {type(tool).__name__}")
+        return self._begin(tool, event, params, user)
+
+    def params_for(self, tool: str, /, **values: Any) -> dict:
+        """Every parameter of a tool with its value: the declared defaults overridden by `values`
+        (checked as a stroke would check them)."""
+        return self._params_for(tool, values)
+
     def __getattr__(self, name: str) -> Any:
         # A tool of this session's own registry that the class has no method for.
         if not name.startswith("_"):
@@ -227,6 +273,15 @@ class Session(_kiji.Session):
             if name in ids:
                 return _make_tool_method(self.tool_info(name)).__get__(self)
         raise AttributeError(f"'{type(self).__name__}' object has no attribute '{name}'")
+
+    def replay(self, journal: Any, *, progress: Optional[Callable[[float], Any]] = None) -> int:
+        """Replays a journal on this session, with the GIL released: a path to a journal file, a list of
+        JournalStroke (version 1: on a session set up the same way), or a list of Operation (a session's
+        log, session.operations: on a new session, or one whose log is a beginning of the list).
+        Returns the operations or strokes done."""
+        if isinstance(journal, (list, tuple)) and journal and all(isinstance(o, _kiji.Operation) for o in journal):
+            return self._replay_operations(list(journal), progress)
+        return super().replay(journal, progress=progress)
 
     def export(self, path: str | os.PathLike, garment: int = 0) -> None:
         """Writes a garment as .glb (with uv and the painted texture) or .obj (+ .mtl + .png)."""
@@ -241,8 +296,34 @@ class Session(_kiji.Session):
 
 
 Session.__module__ = "kiji"
+
+
+def recover(path: str | os.PathLike, *, registry: Optional[_kiji.ToolRegistry] = None,
+            keep_saving: bool = True) -> Session:
+    """Rebuilds a session from its session file (autosave): every operation whose call had returned,
+    strokes the crash left unfinished cancelled. With keep_saving the session goes on autosaving into
+    the same file (a damaged end, from a crash while writing, is cut off first). The session's
+    `recovery` attribute says what was found: operations, damage, cancelled_strokes."""
+    core, autosave, report = _kiji._recover(os.fspath(path), registry if registry is not None else _registry,
+                                            keep_saving)
+    s = Session(_core=core)
+    s._autosave = autosave
+    s.recovery = report
+    return s
+
+
+def load(path: str | os.PathLike, *, registry: Optional[_kiji.ToolRegistry] = None) -> Session:
+    """A new session from a session file (Session.save), replayed operation by operation."""
+    core = _kiji._load_session(os.fspath(path), registry if registry is not None else _registry)
+    return Session(_core=core)
 _BUILT_IN_ATTRIBUTES = set(dir(Session))
 _installed: set[str] = set()
+
+
+def _uninstall_tool_method(tool_id: str) -> None:
+    if tool_id in _installed:
+        delattr(Session, tool_id)
+        _installed.discard(tool_id)
 
 
 def _install_tool_methods() -> None:

@@ -29,8 +29,8 @@ import numpy.typing
 from numpy.typing import ArrayLike, NDArray
 
 __version__: str
-JOURNAL_FILE_VERSION: int
 PACKAGE_PLUGIN_FOLDER: str
+ENTRY_POINT_GROUP: str
 
 class Error(RuntimeError): ...
 class InputError(Error, ValueError): ...
@@ -105,8 +105,11 @@ def _defs(name: str, doc: str | None, indent: str, method: bool) -> list[str]:
 
 def _doc_line(obj: Any) -> str:
     doc = inspect.getdoc(obj) or ""
-    body = [l for l in doc.splitlines() if l and not _SIG.match(l) and l != "Overloaded function."]
-    return body[0].replace('"""', "'") if body else ""
+    body = [l for l in doc.splitlines() if not _SIG.match(l) and l != "Overloaded function."]
+    paragraph = " ".join(l.strip() for l in "\n".join(body).strip().split("\n\n")[0].splitlines())
+    # The first sentence, which a line of the docstring may break in two.
+    first = re.split(r"(?<=\.)\s", paragraph, maxsplit=1)[0] if paragraph else ""
+    return first.replace('"""', "'")
 
 
 def _class_stub(name: str, cls: type, skip: set[str] = frozenset(), base: str = "") -> list[str]:
@@ -128,11 +131,16 @@ def _class_stub(name: str, cls: type, skip: set[str] = frozenset(), base: str = 
             if value.fset is not None:
                 lines.append(f"    @{attr}.setter")
                 lines.append(f"    def {attr}(self, value: Any) -> None: ...")
+        elif isinstance(value, (bool, int, float, str)):
+            lines.append(f"    {attr}: {type(value).__name__}")
         elif isinstance(value, staticmethod) or type(value).__name__ == "staticmethod":
             lines.append("    @staticmethod")
             lines += _defs(attr, getattr(cls, attr).__doc__, "    ", method=False)
         elif callable(value):
             lines += _defs(attr, getattr(value, "__doc__", None), "    ", method=True)
+    for attr, value in sorted(vars(cls).items()):
+        if attr.isupper() and isinstance(value, (bool, int, float, str)) and f"    {attr}: " not in "\n".join(lines):
+            lines.append(f"    {attr}: {type(value).__name__}")
     if len(lines) == 1 or (len(lines) == 2 and doc):
         lines.append("    ...")
     return lines
@@ -159,23 +167,46 @@ def _format_signature(sig: inspect.Signature) -> str:
     return f"({', '.join(parts)}){ret_text}".replace("_kiji.", "")
 
 
+def _python_class_stub(cls: type) -> list[str]:
+    lines = [f"class {cls.__name__}:", f'    """{_doc_line(cls)}"""']
+    for attr, ann in getattr(cls, "__annotations__", {}).items():
+        lines.append(f"    {attr}: {ann if isinstance(ann, str) else inspect.formatannotation(ann)}")
+    for name, fn in sorted(vars(cls).items()):
+        if callable(fn) and not name.startswith("_"):
+            lines.append(f"    def {name}{_format_signature(inspect.signature(fn))}: ...")
+    return lines
+
+
+# The extension's own exception types are written in HEADER; Session is written with its tools below.
+_WRITTEN_APART = {"Error", "InputError", "TopologyError", "Session"}
+
+
 def generate() -> str:
     import kiji
-    from kiji import _kiji, _session
+    from kiji import _kiji, _python_tools, _session
 
     out = [HEADER]
-    classes = ["Material", "SolverParams", "ClothMeasures", "StepReport", "Body", "Camera", "Garment", "ParamSpec", "ToolInfo",
-               "ToolRegistry", "ToolEvent", "SurfaceHit", "JournalStroke"]
-    for name in classes:
-        out += _class_stub(name, getattr(_kiji, name))
-        out.append("")
-    for name in ["version", "abi_tag", "rectangle", "panel", "place_over_body", "load_garment", "export_garment",
-                 "render", "write_png", "read_png", "load_journal", "save_journal"]:
-        out += _defs(name, getattr(_kiji, name).__doc__, "", method=False)
+    public = {n: v for n, v in vars(_kiji).items() if not n.startswith("_")}
+    for name, value in sorted(public.items()):
+        if isinstance(value, (bool, int, float, str)):
+            out.append(f"{name}: {type(value).__name__}")
     out.append("")
-    for name in ["plugin_folders", "registry", "plugin_reports", "tools", "tool_info", "load_plugins"]:
-        fn = getattr(_session, name)
-        out.append(f"def {name}{_format_signature(inspect.signature(fn))}: ...")
+    classes = sorted(n for n, v in public.items() if isinstance(v, type) and n not in _WRITTEN_APART)
+    for name in classes:
+        cls = public[name]
+        base = next((b.__name__ for b in cls.__bases__ if b.__name__ in classes), "")
+        out += _class_stub(name, cls, base=base)
+        out.append("")
+    for name in sorted(n for n, v in public.items() if callable(v) and not isinstance(v, type)):
+        out += _defs(name, public[name].__doc__, "", method=False)
+    out.append("")
+    for module in (_session, _python_tools):
+        for name in sorted(getattr(kiji, "__all__")):
+            fn = getattr(module, name, None)
+            if inspect.isfunction(fn) and fn.__module__ == module.__name__:
+                out.append(f"def {name}{_format_signature(inspect.signature(fn))}: ...")
+    out.append("")
+    out += _python_class_stub(_python_tools.Tool)
     out.append("")
     # Session: the extension's methods, the Python layer's, and one per tool.
     out += _class_stub("_SessionBase", _kiji.Session, skip={"__init__"})

@@ -141,42 +141,62 @@ void bind_garment(py::module_& m) {
         py::arg("name") = "garment", py::arg("uvs") = py::none(),
         "A garment from an (N, 3) float array of positions and an (F, 3) int array of triangles.\n"
         "Rest lengths are the current edge lengths. Raises TopologyError for a non-manifold mesh.");
-  c.def_property("name", [](const Ref& r) { return r.get().name; }, [](Ref& r, const std::string& n) { r.get().name = n; });
+  c.def_property("name", [](const Ref& r) {
+    auto lock = r.guard();
+    return r.get().name; }, [](Ref& r, const std::string& n) { r.edit([&](Garment& g) { g.name = n; }); });
   c.def_property_readonly("in_session", &Ref::in_session, "Whether this is a view of a session's garment.");
-  c.def_property_readonly("vertex_count", [](const Ref& r) { return r.get().mesh().number_of_vertices(); });
-  c.def_property_readonly("face_count", [](const Ref& r) { return r.get().mesh().number_of_faces(); });
-  c.def_property_readonly("piece_count", [](const Ref& r) { return r.get().count_pieces(); },
+  c.def_property_readonly("vertex_count", [](const Ref& r) {
+    auto lock = r.guard();
+    return r.get().mesh().number_of_vertices(); });
+  c.def_property_readonly("face_count", [](const Ref& r) {
+    auto lock = r.guard();
+    return r.get().mesh().number_of_faces(); });
+  c.def_property_readonly("piece_count", [](const Ref& r) {
+    auto lock = r.guard();
+    return r.get().count_pieces(); },
                           "Number of connected pieces of cloth.");
-  c.def_property_readonly("topology_version", [](const Ref& r) { return r.get().topology_version(); });
+  c.def_property_readonly("topology_version", [](const Ref& r) {
+    auto lock = r.guard();
+    return r.get().topology_version(); });
   c.def_property_readonly("vertex_ids", [](const Ref& r) {
+    auto lock = r.guard();
+   
     const VertexRows rows(r.get());
     py::array_t<std::int64_t> a(static_cast<py::ssize_t>(rows.vertices.size()));
     for (std::size_t i = 0; i < rows.vertices.size(); ++i) a.mutable_data()[i] = rows.vertices[i].idx();
     return a;
   }, "(V,) int64: the vertex index of each row (stable across tool edits).");
   c.def_property(
-      "positions", [](const Ref& r) { const Garment& g = r.get(); return per_vertex(g, [&](Vertex v) { return g.position(v); }); },
+      "positions", [](const Ref& r) {
+    auto lock = r.guard();
+    const Garment& g = r.get(); return per_vertex(g, [&](Vertex v) { return g.position(v); }); },
       [](Ref& r, py::handle value) {
-        Garment& g = r.get();
-        const VertexRows rows(g);
-        auto a = real_array(value, "positions", static_cast<long>(rows.vertices.size()), 3);
-        for (std::size_t i = 0; i < rows.vertices.size(); ++i)
-          g.set_position(rows.vertices[i], Vec3(a.at(i, 0), a.at(i, 1), a.at(i, 2)));
+        r.edit([&](Garment& g) {
+          const VertexRows rows(g);
+          auto a = real_array(value, "positions", static_cast<long>(rows.vertices.size()), 3);
+          for (std::size_t i = 0; i < rows.vertices.size(); ++i)
+            g.set_position(rows.vertices[i], Vec3(a.at(i, 0), a.at(i, 1), a.at(i, 2)));
+        });
       },
       "(V, 3) float64, metres.");
   c.def_property(
-      "velocities", [](const Ref& r) { const Garment& g = r.get(); return per_vertex(g, [&](Vertex v) { return g.velocity(v); }); },
+      "velocities", [](const Ref& r) {
+    auto lock = r.guard();
+    const Garment& g = r.get(); return per_vertex(g, [&](Vertex v) { return g.velocity(v); }); },
       [](Ref& r, py::handle value) {
-        Garment& g = r.get();
-        const VertexRows rows(g);
-        auto a = real_array(value, "velocities", static_cast<long>(rows.vertices.size()), 3);
-        for (std::size_t i = 0; i < rows.vertices.size(); ++i)
-          g.velocity(rows.vertices[i]) = Vec3(a.at(i, 0), a.at(i, 1), a.at(i, 2));
+        r.edit([&](Garment& g) {
+          const VertexRows rows(g);
+          auto a = real_array(value, "velocities", static_cast<long>(rows.vertices.size()), 3);
+          for (std::size_t i = 0; i < rows.vertices.size(); ++i)
+            g.velocity(rows.vertices[i]) = Vec3(a.at(i, 0), a.at(i, 1), a.at(i, 2));
+        });
       },
       "(V, 3) float64, m/s.");
   c.def_property(
       "pins",
       [](const Ref& r) {
+    auto lock = r.guard();
+   
         const Garment& g = r.get();
         const VertexRows rows(g);
         py::array_t<bool> a(static_cast<py::ssize_t>(rows.vertices.size()));
@@ -184,21 +204,26 @@ void bind_garment(py::module_& m) {
         return a;
       },
       [](Ref& r, py::handle value) {
-        Garment& g = r.get();
-        const VertexRows rows(g);
-        py::array a = py::module_::import("numpy").attr("asarray")(value);
-        if (a.dtype().kind() != 'b') throw py::type_error("pins must be a bool array of shape (V,)");
-        if (a.ndim() != 1 || a.shape(0) != static_cast<py::ssize_t>(rows.vertices.size()))
-          throw InputError("pins must have shape (" + std::to_string(rows.vertices.size()) + ",)");
-        auto b = py::array_t<bool, py::array::c_style | py::array::forcecast>::ensure(a);
-        for (std::size_t i = 0; i < rows.vertices.size(); ++i) g.set_pinned(rows.vertices[i], b.data()[i]);
+        r.edit([&](Garment& g) {
+          const VertexRows rows(g);
+          py::array a = py::module_::import("numpy").attr("asarray")(value);
+          if (a.dtype().kind() != 'b') throw py::type_error("pins must be a bool array of shape (V,)");
+          if (a.ndim() != 1 || a.shape(0) != static_cast<py::ssize_t>(rows.vertices.size()))
+            throw InputError("pins must have shape (" + std::to_string(rows.vertices.size()) + ",)");
+          auto b = py::array_t<bool, py::array::c_style | py::array::forcecast>::ensure(a);
+          for (std::size_t i = 0; i < rows.vertices.size(); ++i) g.set_pinned(rows.vertices[i], b.data()[i]);
+        });
       },
       "(V,) bool: pinned vertices do not move.");
-  c.def_property_readonly("faces", [](const Ref& r) { return faces_array(r.get()); },
+  c.def_property_readonly("faces", [](const Ref& r) {
+    auto lock = r.guard();
+    return faces_array(r.get()); },
                           "(F, 3) int64: rows of the per-vertex arrays, counter-clockwise.");
   c.def_property(
       "uvs",
       [](const Ref& r) {
+    auto lock = r.guard();
+   
         const Garment& g = r.get();
         const Mesh& mm = g.mesh();
         py::array_t<double> a({static_cast<py::ssize_t>(mm.number_of_faces()), py::ssize_t(3), py::ssize_t(2)});
@@ -211,7 +236,7 @@ void bind_garment(py::module_& m) {
         }
         return a;
       },
-      [](Ref& r, py::handle v) { set_uvs(r.get(), v); },
+      [](Ref& r, py::handle v) { r.edit([&](Garment& g) { set_uvs(g, v); }); },
       "(F, 3, 2) float64: texture coordinates of each face corner (in the order of faces).");
   c.def_property(
       "texture",
@@ -235,27 +260,35 @@ void bind_garment(py::module_& m) {
           t.width = static_cast<int>(b.shape(1));
           t.rgba.assign(b.data(), b.data() + b.size());
         }
-        r.get().texture() = std::move(t);
+        r.edit([&](Garment& g) { g.texture() = std::move(t); });
       },
       "(H, W, 4) uint8 RGBA in uv space (row 0 is v = 0), or None when nothing was painted.");
   c.def_property(
-      "color", [](const Ref& r) { return vec3_array(r.get().color); },
+      "color", [](const Ref& r) {
+    auto lock = r.guard();
+    return vec3_array(r.get().color); },
       [](Ref& r, py::handle v) {
         const Vec3 col = to_vec3(v, "color");
         if ((col.array() < 0).any() || (col.array() > 1).any()) throw InputError("color components must be in [0, 1]");
-        r.get().color = col;
+        r.edit([&](Garment& g) { g.color = col; });
       },
       "Base colour, linear RGB in [0, 1].");
   c.def_property(
-      "material", [](const Ref& r) { return r.get().material(); },
-      [](Ref& r, const Material& mat) { r.get().set_material(mat); }, "The fabric (a copy; assign to change it).");
-  c.def_property("pattern_scale", [](const Ref& r) { return r.get().pattern_scale(); },
+      "material", [](const Ref& r) {
+    auto lock = r.guard();
+    return r.get().material(); },
+      [](Ref& r, const Material& mat) { r.edit([&](Garment& g) { g.set_material(mat); }); }, "The fabric (a copy; assign to change it).");
+  c.def_property("pattern_scale", [](const Ref& r) {
+    auto lock = r.guard();
+    return r.get().pattern_scale(); },
                  [](Ref& r, double s) {
                    if (!std::isfinite(s) || s <= 0) throw InputError("pattern_scale must be a positive number");
-                   r.get().set_pattern_scale(s);
+                   r.edit([&](Garment& g) { g.set_pattern_scale(s); });
                  },
                  "Metres of flat pattern per unit of uv.");
   c.def_property_readonly("tacks", [](const Ref& r) {
+    auto lock = r.guard();
+   
     const Garment& g = r.get();
     const VertexRows rows(g);
     py::array_t<std::int64_t> a({static_cast<py::ssize_t>(g.tacks.size()), py::ssize_t(2)});
@@ -266,15 +299,25 @@ void bind_garment(py::module_& m) {
     return a;
   }, "(T, 2) rows of vertices held together until sewn.");
   c.def_property_readonly("bounds", [](const Ref& r) {
+    auto lock = r.guard();
+   
     const Box3 b = r.get().bounds();
     py::array_t<double> a({2, 3});
     for (int i = 0; i < 3; ++i) a.mutable_at(0, i) = b.min()[i], a.mutable_at(1, i) = b.max()[i];
     return a;
   }, "[[min xyz], [max xyz]]");
-  c.def_property_readonly("kinetic_energy", [](const Ref& r) { return r.get().kinetic_energy(); });
-  c.def("is_valid", [](const Ref& r) { return r.get().is_valid(); }, "A valid manifold triangle mesh with finite values?");
-  c.def("validate", [](const Ref& r) { r.get().validate(); }, "Raises TopologyError or InputError saying what is wrong.");
+  c.def_property_readonly("kinetic_energy", [](const Ref& r) {
+    auto lock = r.guard();
+    return r.get().kinetic_energy(); });
+  c.def("is_valid", [](const Ref& r) {
+    auto lock = r.guard();
+    return r.get().is_valid(); }, "A valid manifold triangle mesh with finite values?");
+  c.def("validate", [](const Ref& r) {
+    auto lock = r.guard();
+    r.get().validate(); }, "Raises TopologyError or InputError saying what is wrong.");
   c.def("pieces", [](const Ref& r) {
+    auto lock = r.guard();
+   
     const Garment& g = r.get();
     const auto label = face_pieces(g);
     py::array_t<std::int64_t> a(static_cast<py::ssize_t>(g.mesh().number_of_faces()));
@@ -283,6 +326,8 @@ void bind_garment(py::module_& m) {
     return a;
   }, "(F,) int64: the piece each face belongs to (0 .. piece_count - 1).");
   c.def("border_loops", [](const Ref& r) {
+    auto lock = r.guard();
+   
     const Garment& g = r.get();
     const VertexRows rows(g);
     py::list out;
@@ -294,7 +339,7 @@ void bind_garment(py::module_& m) {
     return out;
   }, "The border loops, each an array of vertex rows in order.");
   c.def("remove_piece", [](Ref& r, long face) {
-    Garment& g = r.get();
+    r.edit([&](Garment& g) {
     const Mesh& mm = g.mesh();
     if (face < 0 || face >= static_cast<long>(mm.number_of_faces()))
       throw InputError("remove_piece: face " + std::to_string(face) + " does not exist");
@@ -310,26 +355,32 @@ void bind_garment(py::module_& m) {
         edges.push_back(e);
     }
     remove_edges(g, edges);
+    });
   }, py::arg("face"),
      "Removes the piece of cloth that face (a row of faces) belongs to: what a cut left unneeded.\n"
-     "A direct edit, not a tool stroke: it is not in the journal.");
+     "In a session it is an operation of the journal (undo, replay and peers see it).");
   c.def("transform", [](Ref& r, py::handle matrix) {
     auto a = real_array(matrix, "transform", 4, 4);
     Eigen::Matrix4d t;
     for (int i = 0; i < 4; ++i)
       for (int j = 0; j < 4; ++j) t(i, j) = a.at(i, j);
-    r.get().transform(Eigen::Affine3d(t));
+    r.edit([&](Garment& g) { g.transform(Eigen::Affine3d(t)); });
   }, py::arg("matrix"), "Moves every vertex by a 4 x 4 affine matrix (the rest shape is unchanged).");
   c.def("translate", [](Ref& r, py::handle offset) {
-    r.get().transform(Eigen::Affine3d(Eigen::Translation3d(to_vec3(offset, "offset"))));
-  }, py::arg("offset"));
-  c.def("copy", [](const Ref& r) { return std::make_shared<Ref>(r.get()); }, "A separate copy, in no session.");
+    const Vec3 d = to_vec3(offset, "offset");
+    r.edit([&](Garment& g) { g.transform(Eigen::Affine3d(Eigen::Translation3d(d))); });
+  }, py::arg("offset"), "Moves every vertex by an offset (3,), metres (the rest shape is unchanged).");
+  c.def("copy", [](const Ref& r) {
+    auto lock = r.guard();
+    return std::make_shared<Ref>(r.get()); }, "A separate copy, in no session.");
   c.def("export", [](const Ref& r, const std::string& path) {
     const Garment& g = r.get();
     py::gil_scoped_release nogil;
     export_garment(g, path);
   }, py::arg("path"), "Writes a .glb (with uv and texture) or .obj (+ .mtl + .png).");
   c.def("__repr__", [](const Ref& r) {
+    auto lock = r.guard();
+   
     const Garment& g = r.get();
     return "<kiji.Garment '" + g.name + "', " + std::to_string(g.mesh().number_of_vertices()) + " vertices, " +
            std::to_string(g.mesh().number_of_faces()) + " faces, " + std::to_string(g.count_pieces()) + " piece(s)" +
@@ -368,7 +419,7 @@ void bind_garment(py::module_& m) {
         py::arg("panel_id") = 0, py::arg("name") = "panel",
         "A pattern piece: a simple polygon outline ((N, 2) metres, not closed by a repeated point)\n"
         "triangulated inside with edges of about edge_length metres.");
-  m.def("place_over_body", [](Ref& r, const Body& body, double clearance) { place_over_body(r.get(), body, clearance); },
+  m.def("place_over_body", [](Ref& r, const Body& body, double clearance) { r.edit([&](Garment& g) { place_over_body(g, body, clearance); }); },
         py::arg("garment"), py::arg("body"), py::arg("clearance") = 0.02,
         "Lays a flat pattern horizontally over the body (x along the shoulders, y front to back),\n"
         "clearance metres above the highest point under it.");

@@ -102,16 +102,22 @@ void bind_scene(py::module_& m) {
       .def_readwrite("iterations", &SolverParams::iterations)
       .def_readwrite("body_collision", &SolverParams::body_collision)
       .def_readwrite("self_collision", &SolverParams::self_collision)
-      .def_readwrite("spring_k", &SolverParams::spring_k)
-      .def_readwrite("spring_damping", &SolverParams::spring_damping)
-      .def_readwrite("local_radius", &SolverParams::local_radius)
+      .def_readwrite("strain_limit", &SolverParams::strain_limit,
+                     "Xpbd: edges stretched or compressed by more than this fraction of their rest length are "
+                     "brought back to it after each substep (Provot's strain limiting); 0 turns it off")
+      .def_readwrite("spring_k", &SolverParams::spring_k, "MassSpring: the spring constant k of the paper's eq. 3, N/m")
+      .def_readwrite("spring_damping", &SolverParams::spring_damping,
+                     "MassSpring: the damping gamma of the paper's eq. 1, 1/s (the paper uses 0)")
+      .def_readwrite("local_radius", &SolverParams::local_radius,
+                     "the paper's local region: only vertices within this many metres of local_center are "
+                     "computed (0: all)")
       .def_readwrite("sleep_after", &SolverParams::sleep_after,
                      "seconds a patch of cloth stays within sleep_distance before it sleeps (0: never)")
       .def_readwrite("sleep_distance", &SolverParams::sleep_distance, "m")
       .def_property(
           "local_center", [](const SolverParams& p) { return vec3_array(p.local_center); },
           [](SolverParams& p, py::handle v) { p.local_center = to_vec3(v, "local_center"); })
-      .def("validate", &SolverParams::validate)
+      .def("validate", &SolverParams::validate, "Raises InputError naming the first parameter out of range.")
       .def("__repr__", [](const SolverParams& p) {
         return "SolverParams(model='" + solver_model_name(p.model) + "', substeps=" + std::to_string(p.substeps) +
                ", iterations=" + std::to_string(p.iterations) + ")";

@@ -3,6 +3,7 @@
 
 #include "kiji/drape.h"
 #include "kiji/journal_file.h"
+#include "kiji/session_file.h"
 #include "kiji/plugin_loader.h"
 #include "kiji/render.h"
 
@@ -14,11 +15,15 @@ namespace {
 
 using SessionPtr = std::shared_ptr<Session>;
 
-Phase parse_phase(const std::string& name) {
-  for (Phase p : {Phase::Begin, Phase::Move, Phase::End, Phase::Cancel})
-    if (name == phase_name(p)) return p;
-  throw InputError("unknown event phase '" + name + "': use 'begin', 'move', 'end' or 'cancel'");
-}
+// An autosave with the session it writes for: the autosave goes first, while its session is alive.
+struct PyAutosave {
+  SessionPtr session;
+  std::unique_ptr<Autosave> autosave;
+  PyAutosave(SessionPtr s, const std::string& path, bool append)
+      : session(std::move(s)), autosave(std::make_unique<Autosave>(*session, path, append)) {}
+  PyAutosave(SessionPtr s, std::unique_ptr<Autosave> a) : session(std::move(s)), autosave(std::move(a)) {}
+  ~PyAutosave() { autosave.reset(); }
+};
 
 py::object param_default(const ParamSpec& s) { return param_value_to_python(s.default_value); }
 
@@ -155,6 +160,7 @@ void simulate(Session& s, double seconds, const py::object& progress) {
 }
 
 py::list garment_list(const SessionPtr& s) {
+  SessionGuard lock(*s);
   py::list out;
   for (std::size_t i = 0; i < s->garment_count(); ++i) out.append(std::make_shared<GarmentRef>(s, i));
   return out;
@@ -200,11 +206,12 @@ void bind_session(py::module_& m) {
         return out;
       }, py::arg("folders"), "Loads every plugin in the folders; one report dict per candidate.")
       .def("load_plugin", [](ToolRegistry& r, const std::string& path) { return report_dict(r.load_plugin(path)); },
-           py::arg("path"))
-      .def("ids", &ToolRegistry::ids)
-      .def("has", &ToolRegistry::has)
-      .def("info", &ToolRegistry::info)
-      .def("origin", &ToolRegistry::origin);
+           py::arg("path"), "Loads one plugin (its .json or library); a report dict saying whether and why not.")
+      .def("ids", &ToolRegistry::ids, "The ids of every tool, sorted.")
+      .def("has", &ToolRegistry::has, py::arg("id"), "Whether there is a tool of that id.")
+      .def("info", &ToolRegistry::info, py::arg("id"), "A tool's declaration (ToolInfo); InputError naming the known ids.")
+      .def("origin", &ToolRegistry::origin, py::arg("id"),
+           "Where a tool came from: a plugin library's path, 'built in', or the Python class.");
 
   // --- events ---
   py::class_<ToolEvent>(m, "ToolEvent", "One pointer sample of a stroke, as a tool receives it.")
@@ -276,72 +283,172 @@ void bind_session(py::module_& m) {
   m.attr("JOURNAL_FILE_VERSION") = kJournalFileVersion;
 
   // --- the session ---
+  // Every binding below holds the session's guard (SessionGuard): one thread at a time.
   py::class_<Session, SessionPtr> s(m, "Session");
   s.def(py::init([](std::shared_ptr<ToolRegistry> registry) { return std::make_shared<Session>(std::move(registry)); }),
         py::arg("registry") = nullptr);
+  s.def(py::init([](const SessionPtr& existing) {
+          if (!existing) throw py::type_error("Session: expected a kiji Session to wrap");
+          return existing;
+        }),
+        py::arg("session"), "A second handle on an existing session (the same session, not a copy).");
   s.def("add_garment", [](const SessionPtr& self, std::shared_ptr<GarmentRef> g) {
     if (!g) throw py::type_error("add_garment: expected a kiji.Garment");
-    Garment copy = g->get();
-    const std::size_t i = self->add_garment(std::move(copy));
+    SessionGuard lock(*self);
+    std::size_t i;
+    {
+      auto other = g->guard();
+      i = self->add_garment(g->get());
+    }
     if (!g->in_session()) g->adopt(self, i);
     return std::make_shared<GarmentRef>(self, i);
   }, py::arg("garment"),
      "Adds a garment (validated) and returns it as a view of the session's garment. A garment that was\n"
      "in no session becomes that view itself, so it shows what the tools do to it.");
+  s.def("remove_garment", [](Session& self, std::size_t i) {
+    SessionGuard lock(self);
+    self.remove_garment(i);
+  }, py::arg("index"), "Removes a garment; the ones after it move down one index (views of them too).");
   s.def("garment", [](const SessionPtr& self, std::size_t i) {
+    SessionGuard lock(*self);
     self->garment(i);
     return std::make_shared<GarmentRef>(self, i);
   }, py::arg("index") = 0, "The garment at an index, as a view.");
   s.def_property_readonly("garments", &garment_list);
-  s.def_property_readonly("garment_count", &Session::garment_count);
+  s.def_property_readonly("garment_count", [](const Session& self) {
+    SessionGuard lock(self);
+    return self.garment_count();
+  });
   s.def_property("body",
                  [](const Session& self) -> std::shared_ptr<Body> {
+                   SessionGuard lock(self);
                    return self.body() ? std::make_shared<Body>(*self.body()) : nullptr;
                  },
                  [](Session& self, std::shared_ptr<Body> b) {
+                   SessionGuard lock(self);
                    if (b) self.set_body(*b);
                    else self.set_body(std::nullopt);
                  },
                  "The body the garments collide with (None for none). Setting it copies the body.");
-  s.def_property("solver_params", &Session::solver_params, &Session::set_solver_params,
+  s.def_property("solver_params",
+                 [](const Session& self) {
+                   SessionGuard lock(self);
+                   return self.solver_params();
+                 },
+                 [](Session& self, const SolverParams& p) {
+                   SessionGuard lock(self);
+                   self.set_solver_params(p);
+                 },
                  "The solver's parameters (a copy; assign a SolverParams to change them).");
-  s.def_property_readonly("time", &Session::time, "The session's clock, seconds.");
-  s.def_property("frame_rate", &Session::frame_rate, &Session::set_frame_rate, "Simulation steps a second.");
-  s.def_readwrite("simulating", &Session::simulating,
-                  "Whether time steps the cloth (False: tools still edit, nothing falls).");
-  s.def_readwrite("pick_radius", &Session::pick_radius, "How near the cloth a pointer must be to touch it, metres.");
-  s.def_property_readonly("stroke_active", &Session::stroke_active);
+  s.def_property_readonly("time", [](const Session& self) {
+    SessionGuard lock(self);
+    return self.time();
+  }, "The session's clock, seconds.");
+  s.def_property_readonly("steps", [](const Session& self) {
+    SessionGuard lock(self);
+    return self.steps();
+  }, "Simulation steps taken since the session began.");
+  s.def_property("frame_rate",
+                 [](const Session& self) {
+                   SessionGuard lock(self);
+                   return self.frame_rate();
+                 },
+                 [](Session& self, double r) {
+                   SessionGuard lock(self);
+                   self.set_frame_rate(r);
+                 },
+                 "Simulation steps a second.");
+  s.def_property("simulating",
+                 [](const Session& self) {
+                   SessionGuard lock(self);
+                   return self.simulating();
+                 },
+                 [](Session& self, bool on) {
+                   SessionGuard lock(self);
+                   self.set_simulating(on);
+                 },
+                 "Whether time steps the cloth (False: tools still edit, nothing falls). Journaled.");
+  s.def_property("pick_radius",
+                 [](const Session& self) {
+                   SessionGuard lock(self);
+                   return self.pick_radius();
+                 },
+                 [](Session& self, double r) {
+                   SessionGuard lock(self);
+                   self.set_pick_radius(r);
+                 },
+                 "How near the cloth a pointer must be to touch it, metres. Journaled.");
+  s.def_property_readonly("stroke_active", [](const Session& self) {
+    SessionGuard lock(self);
+    return self.stroke_active();
+  });
   s.def("step", [](Session& self, int n) {
     if (n < 0) throw InputError("step: n must be 0 or more");
+    SessionGuard lock(self);
     py::gil_scoped_release nogil;
     for (int i = 0; i < n; ++i) self.step();
   }, py::arg("n") = 1, "n simulation steps of every garment.");
-  s.def("simulate", &simulate, py::arg("seconds"), py::kw_only(), py::arg("progress") = py::none(),
+  s.def("simulate", [](Session& self, double seconds, const py::object& progress) {
+    SessionGuard lock(self);
+    simulate(self, seconds, progress);
+  }, py::arg("seconds"), py::kw_only(), py::arg("progress") = py::none(),
         "Simulates `seconds` of time with the GIL released. progress(fraction) is called after every step\n"
         "and may return False to stop; Ctrl-C raises KeyboardInterrupt (the steps done are kept).");
   s.def("drape", [](Session& self, double seconds, bool place, double clearance, const py::object& progress) {
+    SessionGuard lock(self);
     if (!self.body()) throw InputError("drape: the session has no body: set session.body first");
     if (place)
-      for (std::size_t i = 0; i < self.garment_count(); ++i) place_over_body(self.garment(i), *self.body(), clearance);
-    simulate(self, seconds, progress);
+      for (std::size_t i = 0; i < self.garment_count(); ++i) {
+        Garment g = self.garment(i);
+        place_over_body(g, *self.body(), clearance);
+        self.set_garment(i, g);
+      }
+    // The drape's substeps (as `kiji drape` and kiji::drape use), then back to the interactive ones.
+    const SolverParams interactive = self.solver_params();
+    SolverParams draping = interactive;
+    draping.substeps = std::max(interactive.substeps, DrapeOptions{}.solver.substeps);
+    self.set_solver_params(draping);
+    try {
+      simulate(self, seconds, progress);
+    } catch (...) {
+      self.set_solver_params(interactive);
+      throw;
+    }
+    self.set_solver_params(interactive);
   }, py::arg("seconds") = 3.0, py::kw_only(), py::arg("place") = true, py::arg("clearance") = 0.02,
      py::arg("progress") = py::none(),
-     "Lays every garment over the body (place=True) and lets it fall and settle for `seconds`.");
-  s.def("measure", [](Session& self, std::size_t i) { return self.solver(i).measure(self.garment(i)); },
-        py::arg("garment") = 0, "Penetration, strain, energy and contacts of a garment.");
-  s.def("last_step", [](Session& self, std::size_t i) { return self.solver(i).last_step(); },
-        py::arg("garment") = 0, "What the last step did for a garment: self-collision searches and pairs.");
+     "Lays every garment over the body (place=True) and lets it fall and settle for `seconds`, with the\n"
+     "drape's solver settings (as `kiji drape`: 40 substeps a step, where interactive work uses 10),\n"
+     "then goes back to the session's own. Each change is journaled.");
+  s.def("measure", [](Session& self, std::size_t i) {
+    SessionGuard lock(self);
+    return self.solver(i).measure(self.garment(i));
+  }, py::arg("garment") = 0, "Penetration, strain, energy and contacts of a garment.");
+  s.def("last_step", [](Session& self, std::size_t i) {
+    SessionGuard lock(self);
+    return self.solver(i).last_step();
+  }, py::arg("garment") = 0, "What the last step did for a garment: self-collision searches and pairs.");
   s.def("pick", [](const Session& self, py::handle position, py::handle ray) {
-    return self.pick(to_vec3(position, "position"), ray.is_none() ? Vec3::Zero() : to_vec3(ray, "ray"));
+    const Vec3 p = to_vec3(position, "position");
+    const Vec3 r = ray.is_none() ? Vec3::Zero() : to_vec3(ray, "ray");
+    SessionGuard lock(self);
+    return self.pick(p, r);
   }, py::arg("position"), py::arg("ray") = py::none(), "The cloth under a pointer (nearest within pick_radius, or along a ray).");
 
   // tools
-  s.def("_tool_ids", [](const Session& self) { return self.tools().ids(); });
-  s.def("tool_info", [](const Session& self, const std::string& id) { return self.tools().info(id); }, py::arg("tool"));
+  s.def("_tool_ids", [](const Session& self) {
+    SessionGuard lock(self);
+    return self.tools().ids();
+  });
+  s.def("tool_info", [](const Session& self, const std::string& id) {
+    SessionGuard lock(self);
+    return self.tools().info(id);
+  }, py::arg("tool"));
   s.def("_run_stroke",
         [](Session& self, const std::string& tool, const py::dict& params, py::handle positions, py::handle phases,
            py::handle times, double dt, py::handle buttons, py::handle pressure, py::handle rays,
            py::handle orientations, const py::object& progress) {
+          SessionGuard lock(self);
           if (!self.tools().has(tool)) self.tools().info(tool);  // throws naming the known tools
           const ParamSet ps = params_from_python(self, tool, params);
           const Stroke stroke = make_stroke(self, positions, phases, times, dt, buttons, pressure, rays, orientations);
@@ -351,32 +458,119 @@ void bind_session(py::module_& m) {
                           const std::vector<ToolEvent>& events, const py::object& progress) {
     if (events.empty() || events.front().phase != Phase::Begin)
       throw InputError("a stroke must start with a 'begin' event");
+    SessionGuard lock(self);
     const ParamSet ps = params_from_python(self, tool, params);
     return run_stroke(self, tool, ps, events, progress);
   });
 
   // journal
-  s.def("undo", &Session::undo, "Restores the garments as they were before the last stroke; False if none.");
-  s.def("redo", &Session::redo, "Redoes the last undone stroke; False if none.");
-  s.def_property_readonly("can_undo", [](const Session& self) { return self.journal().can_undo(); });
-  s.def_property_readonly("can_redo", [](const Session& self) { return self.journal().can_redo(); });
-  s.def_property_readonly("journal", [](const Session& self) { return journal_strokes(self.journal()); },
-                          "The strokes done so far (undone ones left out), as JournalStroke objects.");
-  s.def("save_journal", [](const Session& self, const std::string& path) { save_journal(self.journal(), path); },
-        py::arg("path"), "Writes the strokes done so far to a journal file (see kiji.load_journal).");
-  s.def("replay", [](Session& self, py::object strokes, const py::object& progress) {
-    std::vector<JournalStroke> list;
-    if (py::isinstance<py::str>(strokes) || py::hasattr(strokes, "__fspath__"))
-      list = load_journal(py::str(py::module_::import("os").attr("fspath")(strokes)).cast<std::string>());
-    else
-      list = strokes.cast<std::vector<JournalStroke>>();
+  s.def("undo", [](Session& self) {
+    SessionGuard lock(self);
+    return self.undo();
+  }, "Restores the garments as they were before the last change to them (a stroke, a garment added,\n"
+     "removed or edited); False if none.");
+  s.def("redo", [](Session& self) {
+    SessionGuard lock(self);
+    return self.redo();
+  }, "Redoes the last undone change; False if none.");
+  s.def_property_readonly("can_undo", [](const Session& self) {
+    SessionGuard lock(self);
+    return self.journal().can_undo();
+  });
+  s.def_property_readonly("can_redo", [](const Session& self) {
+    SessionGuard lock(self);
+    return self.journal().can_redo();
+  });
+  s.def_property("history_limit",
+                 [](const Session& self) {
+                   SessionGuard lock(self);
+                   return self.journal().history_limit();
+                 },
+                 [](Session& self, std::size_t bytes) {
+                   SessionGuard lock(self);
+                   self.set_history_limit(bytes);
+                 },
+                 "Bytes the undo history may hold (at least 1 MB); the oldest steps are dropped first.");
+  s.def_property_readonly("history_bytes", [](const Session& self) {
+    SessionGuard lock(self);
+    return self.journal().history_bytes();
+  }, "Bytes of garments and textures the undo history holds now.");
+  s.def_property_readonly("journal", [](const Session& self) {
+    SessionGuard lock(self);
+    return journal_strokes(self.journal());
+  }, "The strokes done so far (undone ones left out), as JournalStroke objects.");
+  s.def_property_readonly("operation_count", [](const Session& self) {
+    SessionGuard lock(self);
+    return self.journal().operations().size();
+  }, "How many operations the session has applied (its log: tool events, edits, settings, undo).");
+  s.def_property_readonly("operation_kinds", [](const Session& self) {
+    SessionGuard lock(self);
+    std::vector<std::string> kinds;
+    for (const Operation& op : self.journal().operations()) kinds.push_back(operation_kind(op.data));
+    return kinds;
+  }, "The kind of each operation of the log, in order ('tool', 'add_garment', 'set_simulating', ...).");
+  s.def("save_journal", [](const Session& self, py::handle path) {
+    SessionGuard lock(self);
+    save_journal(self, path_arg(path));
+  }, py::arg("path"),
+        "Writes every operation of the session as a JSON journal (version 2), which replay() on a new\n"
+        "session turns into the same garments.");
+  s.def("save", [](const Session& self, py::handle path) {
+    SessionGuard lock(self);
+    save_session(self, path_arg(path));
+  }, py::arg("path"), "Writes the session file (an LCM log of its operations; see kiji.recover, kiji.load).");
+  s.def("replay", [](Session& self, py::object journal, const py::object& progress) {
     const ProgressHook hook(progress);
+    auto report = [&](std::size_t done, std::size_t total) { return hook(double(done) / double(total)); };
+    SessionGuard lock(self);
+    if (py::isinstance<py::str>(journal) || py::hasattr(journal, "__fspath__")) {
+      const std::string path = path_arg(journal);
+      py::gil_scoped_release nogil;
+      return replay_file(self, path, report);
+    }
+    const auto list = journal.cast<std::vector<JournalStroke>>();
     py::gil_scoped_release nogil;
-    return replay(self, list, [&](std::size_t done, std::size_t total) { return hook(double(done) / double(total)); });
+    return replay(self, list, report);
   }, py::arg("journal"), py::kw_only(), py::arg("progress") = py::none(),
-     "Runs the strokes of a journal (a path or a list of JournalStroke) on this session, with the GIL\n"
-     "released; set up the same garments, body and solver first. Returns the strokes finished.");
+     "Replays a journal (a path to a journal file, or a list of JournalStroke) on this session, with\n"
+     "the GIL released. A version 2 file holds every operation (garments, body, settings): replay it on\n"
+     "a new session. Strokes (version 1, a list) need a session set up the same way. Returns the\n"
+     "operations or strokes done.");
+  s.def("_start_autosave", [](const SessionPtr& self, const std::string& path) {
+    SessionGuard lock(*self);
+    return std::make_shared<PyAutosave>(self, path, false);
+  }, py::arg("path"));
+
+  py::class_<PyAutosave, std::shared_ptr<PyAutosave>>(m, "Autosave",
+      "Appends every operation of a session to a session file as it is applied (see Session(autosave=)).")
+      .def_property_readonly("path", [](const PyAutosave& a) { return a.autosave->path(); })
+      .def_property_readonly("written", [](const PyAutosave& a) { return a.autosave->written(); });
+  m.def("_recover", [](const std::string& path, std::shared_ptr<ToolRegistry> registry, bool keep_saving) {
+    Recovered r;
+    {
+      py::gil_scoped_release nogil;
+      r = recover(path, std::move(registry), keep_saving);
+    }
+    SessionPtr session(r.session.release());
+    std::shared_ptr<PyAutosave> autosave;
+    if (r.autosave) autosave = std::make_shared<PyAutosave>(session, std::move(r.autosave));
+    py::dict report;
+    report["operations"] = r.report.operations;
+    report["damage"] = r.report.damage;
+    report["cancelled_strokes"] = r.cancelled_strokes;
+    return py::make_tuple(session, autosave, report);
+  }, py::arg("path"), py::arg("registry"), py::arg("keep_saving") = true);
+  m.def("_load_session", [](const std::string& path, std::shared_ptr<ToolRegistry> registry) {
+    auto session = std::make_shared<Session>(std::move(registry));
+    {
+      py::gil_scoped_release nogil;
+      replay(*session, load_session(path));
+    }
+    return session;
+  }, py::arg("path"), py::arg("registry"));
+
   s.def("render", [](const SessionPtr& self, std::optional<Camera> camera, int width, int height) {
+    SessionGuard lock(*self);
     py::object render = py::module_::import("kiji._kiji").attr("render");
     return render(garment_list(self), self->body() ? py::cast(std::make_shared<Body>(*self->body())) : py::none(),
                   py::arg("camera") = camera ? py::cast(*camera) : py::none(), py::arg("width") = width,

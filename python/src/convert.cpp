@@ -58,6 +58,18 @@ void bind_errors(py::module_& m) {
   });
 }
 
+std::string path_arg(py::handle obj) {
+  if (!py::isinstance<py::str>(obj) && !py::hasattr(obj, "__fspath__"))
+    throw py::type_error("expected a path (str or os.PathLike), not " + std::string(py::str(obj.get_type().attr("__name__"))));
+  return py::str(py::module_::import("os").attr("fspath")(obj)).cast<std::string>();
+}
+
+SessionGuard::SessionGuard(const Session& session) : lock_(session.mutex(), std::try_to_lock) {
+  if (lock_.owns_lock()) return;
+  py::gil_scoped_release nogil;
+  lock_.lock();
+}
+
 VertexRows::VertexRows(const Garment& g) : row(g.vertex_capacity(), -1) {
   for (Vertex v : g.mesh().vertices()) {
     row[v.idx()] = static_cast<long>(vertices.size());
@@ -211,6 +223,50 @@ py::dict param_map_to_python(const std::map<std::string, ParamValue>& values) {
   return d;
 }
 
+Phase parse_phase(const std::string& name) {
+  for (Phase p : {Phase::Begin, Phase::Move, Phase::End, Phase::Cancel})
+    if (name == phase_name(p)) return p;
+  throw InputError("unknown event phase '" + name + "': use 'begin', 'move', 'end' or 'cancel'");
+}
+
+ToolEvent event_arg(py::handle event, Phase phase, double default_time) {
+  ToolEvent e;
+  if (py::isinstance<ToolEvent>(event)) {
+    e = event.cast<ToolEvent>();
+    if (e.phase != phase) {
+      const auto article = [](Phase p) { return p == Phase::End ? "an '" : "a '"; };
+      throw InputError(std::string("expected ") + article(phase) + phase_name(phase) + "' event, not " +
+                       article(e.phase) + phase_name(e.phase) + "' one: make it with kiji.ToolEvent('" +
+                       phase_name(phase) + "', position, ...), or pass the pointer position alone");
+    }
+    return e;
+  }
+  if (event.is_none())
+    throw py::type_error(std::string("a '") + phase_name(phase) + "' event needs a kiji.ToolEvent or a pointer position (3,)");
+  e.phase = phase;
+  e.position = to_vec3(event, "the pointer position");
+  e.time = default_time;
+  return e;
+}
+
+Session& ToolScope::get(const char* what) const {
+  if (!active())
+    throw Error(std::string(what) + " given to a tool written in Python is used outside the tool's begin, update, "
+                "end or cancel: a tool changes the session only while the session calls it (the stroke is the "
+                "operation); take the garment again from the session passed to the call");
+  return *session;
+}
+
+void PyHandle::Drop::operator()(py::object* obj) const {
+  if (!Py_IsInitialized()) {
+    obj->release();  // the interpreter is gone: nothing to give the reference back to
+  } else {
+    py::gil_scoped_acquire gil;
+    *obj = py::object();
+  }
+  delete obj;
+}
+
 bool ProgressHook::operator()(double fraction) const {
   py::gil_scoped_acquire gil;
   if (PyErr_CheckSignals() != 0) throw py::error_already_set();
@@ -218,5 +274,11 @@ bool ProgressHook::operator()(double fraction) const {
   py::object r = callback_(fraction);
   return r.is_none() || py::bool_(r).cast<bool>();
 }
+
+}  // namespace kiji::python
+
+namespace kiji::python {
+
+void check_garment_index(const Session& session, std::size_t index) { session.garment(index); }
 
 }  // namespace kiji::python

@@ -12,4 +12,11 @@ PYBIND11_MODULE(_kiji, m) {
   kiji::python::bind_scene(m);
   kiji::python::bind_garment(m);
   kiji::python::bind_session(m);
+  kiji::python::bind_interactive(m);
+  kiji::python::bind_solver(m);
+  kiji::python::bind_topology(m);
+  kiji::python::bind_operations(m);
+  kiji::python::bind_collision(m);
+  kiji::python::bind_haptics(m);
+  kiji::python::bind_tools(m);
 }

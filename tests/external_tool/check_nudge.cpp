@@ -64,7 +64,7 @@ int main(int argc, char** argv) {
 
   // 3. A stroke through a session: the vertex under the pointer follows it.
   kiji::Session session(registry);
-  session.simulating = false;
+  session.set_simulating(false);
   session.add_garment(kiji::make_rectangle(1.0, 1.0, 5, 5));
   const kiji::Vertex v(12);
   const kiji::Vec3 start = session.garment(0).position(v);
@@ -81,7 +81,7 @@ int main(int argc, char** argv) {
   stroke.push_back(e);
   session.run("nudge", session.params_for("nudge"), stroke);
   check((session.garment(0).position(v) - target).norm() < 1e-12, "the grabbed vertex follows the pointer");
-  check(session.journal().entries().size() == 1 && session.journal().entries()[0].tool == "nudge",
+  check(session.journal().entries().size() == 2 && session.journal().entries().back().tool == "nudge",
         "the stroke is journaled");
   check(session.undo() && (session.garment(0).position(v) - start).norm() < 1e-12, "undo puts it back");
 

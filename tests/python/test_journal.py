@@ -1,4 +1,5 @@
-"""Undo, redo, and journal files: save, load, replay on a fresh session."""
+"""Undo, redo, and journal files: save, load, replay on a fresh session; every change a script makes is
+an operation of the journal, so the replay gives the same garments bit for bit."""
 import json
 
 import numpy as np
@@ -16,7 +17,7 @@ def design(s):
 
 def test_undo_redo():
     s, g = flat_session(1.0, 1.0, 11, 11)
-    assert not s.undo()
+    assert s.journal == [] and not s.can_redo
     design(s)
     assert len(s.journal) == 3 and [j.tool for j in s.journal] == ["cut", "paint", "pinch"]
     assert s.undo() and s.undo()
@@ -34,22 +35,32 @@ def test_save_load_replay_gives_the_same_garment(tmp_path):
     path = tmp_path / "session.kiji.json"
     s.save_journal(str(path))
     doc = json.loads(path.read_text())
-    assert doc["format"] == "kiji-journal" and doc["version"] == kiji.JOURNAL_FILE_VERSION
-    assert [st["tool"] for st in doc["strokes"]] == ["cut", "paint", "pinch"]
-    assert doc["strokes"][1]["params"]["color"] == [1.0, 0.0, 0.0]
+    assert doc["format"] == "kiji-journal" and doc["version"] == kiji.JOURNAL_FILE_VERSION == 2
+    ops = doc["operations"]
+    assert [o["kind"] for o in ops[:2]] == ["add_garment", "set_solver_params"]
+    begins = [o for o in ops if o["kind"] == "tool" and o["event"]["phase"] == "begin"]
+    assert [o["tool"] for o in begins] == ["cut", "paint", "pinch"]
+    assert begins[1]["params"]["color"] == [1.0, 0.0, 0.0]
     strokes = kiji.load_journal(str(path))
     assert [st.tool for st in strokes] == ["cut", "paint", "pinch"]
     assert strokes[2].params["stiffness"] == 300.0 and strokes[1].params["resolution"] == 64
     assert strokes[0].positions.shape == (21, 3)
 
+    # A session set up with the same operations continues from them; a new one replays them all.
     fresh, h = flat_session(1.0, 1.0, 11, 11)
     seen = []
-    assert fresh.replay(path, progress=seen.append) == 3
+    assert fresh.replay(path, progress=seen.append) == len(ops)
     assert seen[-1] == pytest.approx(1.0)
     assert np.array_equal(h.faces, g.faces)
     assert np.array_equal(h.positions, g.positions)
     assert np.array_equal(h.texture, g.texture)
-    assert fresh.time == pytest.approx(s.time)
+    assert fresh.time == s.time
+    new = kiji.Session()
+    assert new.replay(path) == len(ops)
+    assert np.array_equal(new.garment(0).positions, g.positions)
+    other, _ = flat_session(1.0, 1.0, 9, 9)
+    with pytest.raises(kiji.InputError, match="differs from the journal's at operation 0"):
+        other.replay(path)
     # A list of strokes replays too, and the session's own journal can be saved with kiji.save_journal.
     again, k = flat_session(1.0, 1.0, 11, 11)
     kiji.save_journal(s.journal, str(tmp_path / "copy.json"))
@@ -65,7 +76,7 @@ def test_bad_journal_files_are_clear_errors(tmp_path):
     p.write_text("{not json")
     with pytest.raises(kiji.InputError, match="not valid JSON"):
         kiji.load_journal(str(p))
-    p.write_text(json.dumps({"format": "kiji-journal", "version": 99, "strokes": []}))
+    p.write_text(json.dumps({"format": "kiji-journal", "version": 99, "operations": []}))
     with pytest.raises(kiji.InputError, match="version 99"):
         kiji.load_journal(str(p))
     p.write_text(json.dumps({"format": "kiji-journal", "version": 1, "strokes": [
@@ -76,4 +87,66 @@ def test_bad_journal_files_are_clear_errors(tmp_path):
         {"tool": "lasso", "params": {}, "events": [{"phase": "begin", "time": 0, "position": [0, 0, 0]}]}]}))
     with pytest.raises(kiji.InputError, match="unknown tool 'lasso'"):
         s.replay(str(p))
-    assert not s.can_undo
+    assert s.journal == []
+    p.write_text(json.dumps({"format": "kiji-journal", "version": 1, "strokes": [
+        {"tool": "cut", "params": {}, "events": [{"phase": "begin", "time": 1e9, "position": [0, 0, 0]}]}]}))
+    with pytest.raises(kiji.InputError, match="at most 3600 s ahead"):
+        s.replay(str(p))
+    p.write_text(json.dumps({"format": "kiji-journal", "version": 1, "strokes": [
+        {"tool": "cut", "params": {}, "events": [{"phase": "begin", "time": 0, "position": [0, 0, 0],
+                                                  "buttons": -5}]}]}))
+    with pytest.raises(kiji.InputError, match="'buttons' is not a whole number"):
+        s.replay(str(p))
+
+
+def every_kind_of_change(s):
+    """A script that changes a session every way a script can."""
+    s.body = kiji.Body.default()
+    g = s.add_garment(kiji.rectangle(0.5, 0.4, spacing=0.05))
+    s.solver_params = kiji.SolverParams(substeps=5)
+    s.drape(seconds=0.2)
+    s.simulating = False
+    s.cut(line((0.0, 1.3, -0.3), (0.0, 1.3, 0.3), 8))
+    s.simulating = True
+    s.frame_rate = 90
+    s.simulate(0.1)
+    g.positions = g.positions + np.array([0.0, 0.01, 0.0])
+    g.velocities = np.zeros_like(g.velocities)
+    pins = g.pins
+    pins[:3] = True
+    g.pins = pins
+    g.material = kiji.Material("denim")
+    g.color = (0.2, 0.4, 0.6)
+    g.name = "tunic"
+    s.pick_radius = 0.1
+    s.paint(g.positions[5:8], color=(1, 0, 0), radius=0.03, resolution=32)
+    s.undo()
+    s.redo()
+    h = s.add_garment(kiji.rectangle(0.2, 0.2, nx=4, ny=4))
+    h.translate((0, 2.0, 0))
+    s.remove_garment(1)
+    if g.piece_count > 1:
+        g.remove_piece(0)
+    s.step(3)
+    return g
+
+
+def test_a_script_that_changes_everything_replays_bit_for_bit(tmp_path):
+    s = kiji.Session()
+    g = every_kind_of_change(s)
+    kinds = set(s.operation_kinds)
+    assert {"set_body", "add_garment", "set_solver_params", "set_garment", "set_simulating", "tool",
+            "set_frame_rate", "set_pick_radius", "undo", "redo", "remove_garment"} <= kinds
+    path = tmp_path / "everything.json"
+    s.save_journal(path)
+    again = kiji.Session()
+    again.replay(path)
+    h = again.garment(0)
+    assert again.garment_count == s.garment_count and again.time == s.time
+    for name in ("positions", "velocities", "pins", "faces", "uvs", "texture"):
+        assert np.array_equal(getattr(h, name), getattr(g, name)), name
+    assert h.material.name == "denim" and h.name == "tunic" and again.frame_rate == 90
+    # The session file (an LCM log) gives the same session.
+    s.save(tmp_path / "everything.kiji")
+    loaded = kiji.load(tmp_path / "everything.kiji")
+    assert np.array_equal(loaded.garment(0).positions, g.positions)

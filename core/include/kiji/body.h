@@ -44,9 +44,10 @@ class Body {
   // Throws InputError for a missing or unreadable file, a format assimp cannot read, a file with no
   // triangles, or non-finite coordinates; the message names the file and the problem.
   static Body load(const std::string& path, const BodyImportOptions& options = {});
-  // A body from triangles already in metres, +Y up (checked like a file).
+  // A body from triangles already in metres, +Y up (checked like a file); `report` says where
+  // they came from.
   static Body from_triangles(std::vector<Vec3> vertices, std::vector<std::array<int, 3>> triangles,
-                             std::string name = "body");
+                             std::string name = "body", BodyImportReport report = {});
   // The default body: human.zae from Debian's assimp-testmodels.
   static std::string default_path();
 

@@ -40,8 +40,13 @@ class ToolRegistry {
   std::vector<PluginReport> load_plugins(const std::vector<std::string>& folders = {});
   // Loads one plugin from its metadata file (NAME.json) or its library (the .json beside it).
   PluginReport load_plugin(const std::string& path);
-  // Registers a tool built into the host (tests, the app). Throws InputError if the id is taken.
-  void add(const std::string& id, ToolFactory factory);
+  // Registers a tool built into the host (tests, the app, a tool written in Python); `origin` is
+  // what origin() says of it. Throws InputError if the id is taken.
+  void add(const std::string& id, ToolFactory factory, std::string origin = "built in");
+
+  // Forgets a tool (one a script registers again after changing it). Sessions keep the instances
+  // they already made. False if there was no tool of that id.
+  bool remove(const std::string& id);
 
   bool has(const std::string& id) const;
   std::vector<std::string> ids() const;  // sorted

@@ -1,15 +1,21 @@
 // A design session: the scene (garments, a body, their solvers), the tools, the clock and the
-// journal. Every change to the garments by a tool enters here as a ToolEvent, is applied, and is
-// journaled; undo, redo and replay are built on that.
+// journal. Every change enters as an Operation (kiji/operation.h): a tool event, a garment added,
+// removed or edited, a new body, new solver parameters, pausing, undo. Each is applied, appended to
+// the journal's log and handed to the session's listeners (autosave, peers), so that undo, replay,
+// recovery and peers all see one history, and a log replayed on a new session gives the same
+// garments bit for bit.
 #pragma once
 
 #include "kiji/body.h"
 #include "kiji/garment.h"
 #include "kiji/journal.h"
+#include "kiji/operation.h"
 #include "kiji/plugin_loader.h"
 #include "kiji/solver.h"
 #include "kiji/tool.h"
 
+#include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -27,34 +33,51 @@ class Session {
   Session(const Session&) = delete;
   Session& operator=(const Session&) = delete;
 
-  // --- scene ---
-  std::size_t add_garment(Garment garment);  // returns its index
+  // --- scene (each change is an operation) ---
+  // Adds a garment (validated) at the end; returns its index. The session keeps the garment as its
+  // binary form gives it back (encode_garment), as every replay and peer will.
+  std::size_t add_garment(const Garment& garment);
+  // Removes a garment; the ones after it move down one index.
+  void remove_garment(std::size_t index);
+  // Replaces a garment by an edited copy (validated): how a change made outside a tool (arrays
+  // assigned, a piece removed, a new material, a topology edit) enters the journal.
+  void set_garment(std::size_t index, const Garment& garment);
   std::size_t garment_count() const { return garments_.size(); }
+  // The garment at an index. A tool changes it in place during its stroke (the stroke is the
+  // operation); any other change must go through set_garment, or it is not journaled.
   Garment& garment(std::size_t index);
   const Garment& garment(std::size_t index) const;
   void set_body(std::optional<Body> body);
-  const Body* body() const { return body_ ? &*body_ : nullptr; }
+  const Body* body() const { return body_.get(); }
   // The solver of one garment (each garment has its own, with the session's solver parameters).
   Solver& solver(std::size_t garment);
+  const Solver& solver(std::size_t garment) const;
   const SolverParams& solver_params() const { return solver_params_; }
   void set_solver_params(const SolverParams& params);  // validates; applies to every garment
 
   // --- clock and simulation ---
   double time() const { return time_; }
+  // Simulation steps taken since the session began (paused ones included: the clock ran).
+  std::uint64_t steps() const { return steps_; }
   double frame_rate() const { return frame_rate_; }
   void set_frame_rate(double steps_per_second);  // 1..10000
-  // One simulation step of every garment (1 / frame_rate seconds).
+  // One simulation step of every garment (1 / frame_rate seconds). Not an operation: time passing
+  // is what every copy of the session does by itself.
   void step();
-  // Steps until the clock reaches t (nothing if it already has).
+  // Steps until the clock reaches t (nothing if it already has). Refuses a t more than
+  // max_advance_seconds ahead, which would not end in any useful time.
   void advance_to(double t);
-  // Whether the simulation runs at all (a paused session still applies tool edits).
-  bool simulating = true;
+  static constexpr double max_advance_seconds = 3600;
+  // Whether time steps the cloth (false: tools still edit, nothing falls; the clock runs).
+  bool simulating() const { return simulating_; }
+  void set_simulating(bool simulating);
 
   // --- picking ---
-  // The cloth under a pointer: the nearest surface point within `radius` of `position`, or where
-  // the ray from `position` along `ray` (when non-zero) first meets the cloth.
+  // The cloth under a pointer: the nearest surface point within pick_radius() of `position`, or
+  // where the ray from `position` along `ray` (when non-zero) first meets the cloth.
   SurfaceHit pick(const Vec3& position, const Vec3& ray = Vec3::Zero()) const;
-  double pick_radius = 0.05;  // metres
+  double pick_radius() const { return pick_radius_; }
+  void set_pick_radius(double metres);  // (0, 10]
 
   // --- tools ---
   ToolRegistry& tools() { return *registry_; }
@@ -63,24 +86,45 @@ class Session {
   ParamSet params_for(const std::string& tool, const std::map<std::string, ParamValue>& values = {}) const;
 
   // The one path every tool event takes: advances the clock to the event's time, fills in the
-  // surface hit, calls the tool, and journals it. Begin starts a stroke (snapshotting the garments),
-  // End finishes and journals it, Cancel restores the garments. If the tool throws, the garments
-  // are restored to where the stroke began and the error is rethrown: nothing is half-applied.
-  // `params` is required for Begin and ignored after it.
-  Feedback apply(Tool& tool, const ToolEvent& event, const ParamSet* params = nullptr);
-  Feedback apply(const std::string& tool, const ToolEvent& event, const ParamSet* params = nullptr);
+  // surface hit, calls the tool, and journals it. Each user has at most one stroke in progress and
+  // its own instance of each tool. Begin starts a stroke (snapshotting the garments), End finishes
+  // it (a step of the undo history), Cancel restores the garments as they were at its Begin. If the
+  // tool throws, the stroke is cancelled the same way and the error rethrown: nothing is
+  // half-applied. `params` is required for Begin and ignored after it.
+  Feedback apply(Tool& tool, const ToolEvent& event, const ParamSet* params = nullptr, UserId user = 0);
+  Feedback apply(const std::string& tool, const ToolEvent& event, const ParamSet* params = nullptr,
+                 UserId user = 0);
   // A whole recorded stroke through apply(); the stroke must start with Begin.
-  void run(Tool& tool, const ParamSet& params, const Stroke& stroke);
-  void run(const std::string& tool, const ParamSet& params, const Stroke& stroke);
-  bool stroke_active() const { return active_ != nullptr; }
-  const std::string& active_tool() const;
-  // The tool instance the session uses for an id (created on first use).
-  Tool& tool(const std::string& id);
+  void run(Tool& tool, const ParamSet& params, const Stroke& stroke, UserId user = 0);
+  void run(const std::string& tool, const ParamSet& params, const Stroke& stroke, UserId user = 0);
+  bool stroke_active(UserId user = 0) const { return active_.count(user) > 0; }
+  // Users with a stroke in progress.
+  std::vector<UserId> active_users() const;
+  const std::string& active_tool(UserId user = 0) const;
+  // The tool instance a user's strokes use for an id (created on first use).
+  Tool& tool(const std::string& id, UserId user = 0);
+
+  // --- operations ---
+  // Applies an operation as the session would have made it: steps the clock to op.step first (no
+  // further than max_advance_seconds), then applies it for op.user. What replay, recovery and
+  // peers call. Throws InputError (and changes nothing) for an operation that cannot apply here:
+  // a garment index that does not exist, bad bytes, a tool the session does not have.
+  Feedback perform(const Operation& op);
+  // Called after each operation is applied and logged, on the thread that applied it (autosave,
+  // peers). Returns an id for remove_listener. A listener's error reaches the caller of the
+  // operation, which has been applied and logged all the same.
+  using OperationListener = std::function<void(const Operation&)>;
+  int add_listener(OperationListener listener);
+  void remove_listener(int id);
 
   // --- journal ---
   const Journal& journal() const { return journal_; }
-  bool undo();  // restores the garments as they were before the last stroke; false if none
+  // Restores the garments as they were before the last step of the undo history (a stroke, a
+  // garment added, removed or set); false if none. Strokes in progress are cancelled first.
+  bool undo();
   bool redo();
+  // Bytes the undo history may hold (see Journal::set_history_limit).
+  void set_history_limit(std::size_t bytes) { journal_.set_history_limit(bytes); }
 
   // --- threads ---
   // A session is used by one thread at a time. Code that shares one between threads (an app's
@@ -91,19 +135,31 @@ class Session {
 
  private:
   struct ActiveStroke;
-  std::vector<Garment> snapshot() const;
-  void restore(const std::vector<Garment>& garments);
+  GarmentSnapshot snapshot() const;
+  void restore(const GarmentSnapshot& snapshot);
+  void advance_to_step(std::uint64_t step);
+  void log(Operation op);
+  void do_add_garment(std::shared_ptr<const std::string> bytes);
+  void do_set_garment(std::size_t index, std::shared_ptr<const std::string> bytes);
+  void do_remove_garment(std::size_t index);
+  Feedback do_tool(Tool& tool, const op::ToolInput& input, const ParamSet* params, UserId user, bool rethrow);
+  void cancel_all_strokes();
 
   std::shared_ptr<ToolRegistry> registry_;
   std::vector<Garment> garments_;
   std::vector<std::unique_ptr<Solver>> solvers_;
-  std::optional<Body> body_;
+  std::shared_ptr<const Body> body_;
   SolverParams solver_params_;
   double time_ = 0;
+  std::uint64_t steps_ = 0;
   double frame_rate_ = 60;
-  std::map<std::string, std::unique_ptr<Tool>> tool_instances_;
-  std::unique_ptr<ActiveStroke> active_;
+  bool simulating_ = true;
+  double pick_radius_ = 0.05;
+  std::map<std::pair<UserId, std::string>, std::unique_ptr<Tool>> tool_instances_;
+  std::map<UserId, std::unique_ptr<ActiveStroke>> active_;
   Journal journal_;
+  std::map<int, OperationListener> listeners_;
+  int next_listener_ = 0;
   mutable std::recursive_mutex mutex_;
 };
 

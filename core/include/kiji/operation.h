@@ -1,0 +1,127 @@
+// Operations: every change to a session, as data. A tool event, a new garment, a direct edit, a new
+// body, new solver parameters, pausing, undo: each enters the session as an Operation, is applied,
+// and is appended to the session's log, so that replay, autosave, undo and peers see one history.
+// Replaying a log on a new session gives the same garments bit for bit.
+//
+// Operations have a compact binary form (encode_operation / decode_operation) for files and the
+// network. The decoder trusts nothing: every length and index is checked against the bytes that
+// are there and against fixed limits before anything is allocated.
+#pragma once
+
+#include "kiji/body.h"
+#include "kiji/garment.h"
+#include "kiji/params.h"
+#include "kiji/solver.h"
+#include "kiji/tool_event.h"
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+namespace kiji {
+
+// Who made a change: 0 is the local user; peers and recordings get their own numbers. Each user has
+// at most one stroke in progress, with its own instance of the tool.
+using UserId = std::uint32_t;
+
+namespace op {
+
+// One event of a stroke (Begin carries the tool's parameters; Move, End and Cancel do not).
+struct ToolInput {
+  std::string tool;
+  std::map<std::string, ParamValue> params;  // Begin only: every parameter's value
+  ToolEvent event;                           // as the device gave it (the session fills in the hit)
+};
+// A garment added at the end of the list. The garment is carried in its binary form, so that every
+// session that applies the operation builds the very same mesh from the same bytes.
+struct AddGarment {
+  std::shared_ptr<const std::string> garment;  // encode_garment()
+};
+struct RemoveGarment {
+  std::uint32_t index = 0;
+};
+// A garment replaced by an edited copy: what direct edits become (arrays assigned from Python, a
+// piece removed, a new material, a topology edit outside a tool).
+struct SetGarment {
+  std::uint32_t index = 0;
+  std::shared_ptr<const std::string> garment;  // encode_garment()
+};
+struct SetBody {
+  std::shared_ptr<const std::string> body;  // encode_body(); null: no body
+};
+struct SetSolverParams {
+  SolverParams params;
+};
+struct SetFrameRate {
+  double steps_per_second = 60;
+};
+struct SetSimulating {
+  bool simulating = true;
+};
+struct SetPickRadius {
+  double radius = 0.05;
+};
+struct Undo {};
+struct Redo {};
+// Time passed: the session's clock reached op.step, and nothing else changed. Saved files end with
+// one, so that replaying them ends where the session was, not at its last change.
+struct Advance {};
+
+}  // namespace op
+
+using OperationData = std::variant<op::ToolInput, op::AddGarment, op::RemoveGarment, op::SetGarment, op::SetBody,
+                                   op::SetSolverParams, op::SetFrameRate, op::SetSimulating, op::SetPickRadius,
+                                   op::Undo, op::Redo, op::Advance>;
+
+struct Operation {
+  // The number of simulation steps the session had taken when the operation was applied: replay
+  // steps to this count first. (A tool event may step the clock further, to its own time.)
+  std::uint64_t step = 0;
+  UserId user = 0;
+  OperationData data;
+};
+
+// The operation's kind as a word: "tool", "add_garment", "remove_garment", "set_garment",
+// "set_body", "set_solver_params", "set_frame_rate", "set_simulating", "set_pick_radius", "undo",
+// "redo", "advance".
+const char* operation_kind(const OperationData& data);
+
+// Whether an operation can change a garment (and so is a step of the undo history when it
+// completes): tool strokes, adding, removing and setting garments.
+bool changes_garments(const OperationData& data);
+
+// --- binary forms ---
+// Version of the binary forms below; a decoder refuses a later one, naming both.
+constexpr std::uint16_t kOperationFormatVersion = 1;
+
+// Limits a decoder enforces on outside bytes (a file, a network message) before allocating.
+struct DecodeLimits {
+  std::size_t max_vertices = 4'000'000;
+  std::size_t max_faces = 8'000'000;
+  std::size_t max_texture_side = 16384;
+  std::size_t max_string = 4096;
+  std::size_t max_params = 256;
+};
+
+std::string encode_operation(const Operation& op);
+// Throws InputError saying what is malformed (and at which byte) for bytes that are not a whole,
+// valid operation of a version this Kiji reads.
+Operation decode_operation(std::string_view bytes, const DecodeLimits& limits = {});
+
+// A garment's whole state (mesh with every property, material, texture, tacks), exactly: doubles are
+// kept bit for bit, and vertex indices (holes included) are kept.
+std::string encode_garment(const Garment& garment);
+Garment decode_garment(std::string_view bytes, const DecodeLimits& limits = {});
+
+// A body's geometry and name.
+std::string encode_body(const Body& body);
+Body decode_body(std::string_view bytes, const DecodeLimits& limits = {});
+
+// A 64-bit FNV-1a hash of bytes: names payloads and states (not a security measure).
+std::uint64_t hash_bytes(std::string_view bytes, std::uint64_t seed = 0xcbf29ce484222325ull);
+
+}  // namespace kiji

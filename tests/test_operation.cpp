@@ -1,0 +1,229 @@
+// Operations and the binary forms of garments and bodies: what goes in comes out exactly, and bytes
+// that are not a whole, valid operation are refused with a message, never read past their end.
+#include "kiji/error.h"
+#include "kiji/operation.h"
+#include "kiji/pattern.h"
+#include "kiji/topology.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+using namespace kiji;
+
+namespace {
+
+// A garment with everything a garment can hold: a hole left by a torn-out vertex, a cut, a pin,
+// a tack, custom rest lengths and thresholds, a painted texture, a material of its own.
+Garment rich_garment() {
+  Garment g = make_rectangle(0.6, 0.4, 7, 5, Material::silk());
+  g.name = "rich";
+  g.color = Vec3(0.1, 0.5, 0.9);
+  std::vector<Edge> around_corner;  // tearing them all out leaves vertex 0 a hole in the indices
+  for (Halfedge h : CGAL::halfedges_around_target(g.mesh().halfedge(Vertex(0)), g.mesh()))
+    around_corner.push_back(g.mesh().edge(h));
+  remove_edges(g, around_corner);
+  std::vector<Vertex> path = edge_path(g, Vertex(15), Vertex(19));
+  cut_along(g, path);
+  for (Vertex v : g.mesh().vertices()) {
+    g.velocity(v) = Vec3(0.001 * v.idx(), -0.25, 1.0 / 3.0);
+    if (v.idx() == 30) g.set_pinned(v, true);
+  }
+  Edge e = *g.mesh().edges().begin();
+  g.set_rest_length(e, g.rest_length(e) * 1.1);
+  g.set_tear_threshold(e, 0.123456789);
+  g.tacks.emplace_back(Vertex(8), Vertex(27));
+  g.texture() = Texture::filled(8, 4, 10, 20, 30, 255);
+  g.texture().texel(3, 2)[0] = 200;
+  g.set_pattern_scale(0.61);
+  return g;
+}
+
+void expect_same(const Garment& a, const Garment& b) {
+  ASSERT_EQ(a.vertex_capacity(), b.vertex_capacity());
+  ASSERT_EQ(a.mesh().number_of_faces(), b.mesh().number_of_faces());
+  ASSERT_EQ(a.mesh().number_of_edges(), b.mesh().number_of_edges());
+  EXPECT_EQ(a.name, b.name);
+  EXPECT_EQ(a.color, b.color);
+  EXPECT_EQ(a.material().name, b.material().name);
+  EXPECT_EQ(a.material().stretch_stiffness, b.material().stretch_stiffness);
+  EXPECT_EQ(a.pattern_scale(), b.pattern_scale());
+  for (std::size_t i = 0; i < a.vertex_capacity(); ++i) {
+    const Vertex v(static_cast<std::uint32_t>(i));
+    ASSERT_EQ(a.mesh().is_removed(v), b.mesh().is_removed(v)) << "vertex " << i;
+    if (a.mesh().is_removed(v)) continue;
+    EXPECT_EQ(a.position(v), b.position(v));  // bit for bit
+    EXPECT_EQ(a.velocity(v), b.velocity(v));
+    EXPECT_EQ(a.inverse_mass(v), b.inverse_mass(v));
+  }
+  // The same faces by the same vertex indices, with the same uvs and panels.
+  auto faces = [](const Garment& g) {
+    std::vector<std::array<double, 10>> out;
+    for (Face f : g.mesh().faces()) {
+      std::array<double, 10> row{};
+      int k = 0;
+      for (Halfedge h : CGAL::halfedges_around_face(g.mesh().halfedge(f), g.mesh())) {
+        row[k] = g.mesh().target(h).idx();
+        row[3 + 2 * k] = g.uv(h).x();
+        row[4 + 2 * k] = g.uv(h).y();
+        ++k;
+      }
+      row[9] = g.panel(f);
+      out.push_back(row);
+    }
+    return out;
+  };
+  EXPECT_EQ(faces(a), faces(b));
+  auto edges = [](const Garment& g) {
+    std::map<std::pair<std::uint32_t, std::uint32_t>, std::pair<double, double>> out;
+    for (Edge e : g.mesh().edges()) {
+      const Halfedge h = g.mesh().halfedge(e);
+      auto key = std::minmax(g.mesh().source(h).idx(), g.mesh().target(h).idx());
+      out[{key.first, key.second}] = {g.rest_length(e), g.tear_threshold(e)};
+    }
+    return out;
+  };
+  EXPECT_EQ(edges(a), edges(b));
+  EXPECT_EQ(a.tacks, b.tacks);
+  EXPECT_EQ(a.texture().width, b.texture().width);
+  EXPECT_EQ(a.texture().rgba, b.texture().rgba);
+}
+
+Body small_body() {
+  return Body::from_triangles({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, {{{0, 2, 1}}, {{0, 1, 3}}, {{0, 3, 2}}, {{1, 2, 3}}},
+                              "tetra");
+}
+
+std::vector<Operation> one_of_each() {
+  std::vector<Operation> ops;
+  op::ToolInput t;
+  t.tool = "cut";
+  t.params = {{"mode", std::string("stroke")}, {"depth", 0.25}, {"count", 3LL}, {"on", true},
+              {"color", Vec3(0.1, 0.2, 0.3)}};
+  t.event.phase = Phase::Begin;
+  t.event.time = 1.0 / 3.0;
+  t.event.position = Vec3(0.1, -0.2, 0.3);
+  t.event.orientation = Eigen::Quaterniond(0.5, 0.5, -0.5, 0.5);
+  t.event.buttons = 3;
+  t.event.pressure = 0.7;
+  t.event.ray = Vec3(0, 0, -1);
+  ops.push_back({7, 2, t});
+  ops.push_back({8, 0, op::AddGarment{std::make_shared<const std::string>(encode_garment(rich_garment()))}});
+  ops.push_back({9, 0, op::RemoveGarment{4}});
+  ops.push_back({9, 1, op::SetGarment{1, std::make_shared<const std::string>(encode_garment(rich_garment()))}});
+  ops.push_back({10, 0, op::SetBody{std::make_shared<const std::string>(encode_body(small_body()))}});
+  ops.push_back({10, 0, op::SetBody{nullptr}});
+  SolverParams p;
+  p.substeps = 17;
+  p.gravity = Vec3(0, -1.5, 0);
+  ops.push_back({11, 0, op::SetSolverParams{p}});
+  ops.push_back({12, 0, op::SetFrameRate{120}});
+  ops.push_back({12, 0, op::SetSimulating{false}});
+  ops.push_back({12, 0, op::SetPickRadius{0.02}});
+  ops.push_back({13, 5, op::Undo{}});
+  ops.push_back({14, 5, op::Redo{}});
+  return ops;
+}
+
+}  // namespace
+
+TEST(GarmentCodec, AGarmentComesBackExactlyWithItsHolesAndEveryProperty) {
+  const Garment g = rich_garment();
+  ASSERT_TRUE(g.mesh().has_garbage()) << "the test garment should have removed vertices";
+  const std::string bytes = encode_garment(g);
+  const Garment back = decode_garment(bytes);
+  expect_same(g, back);
+  EXPECT_EQ(encode_garment(back), bytes) << "a decoded garment encodes to the same bytes";
+  EXPECT_TRUE(back.is_valid());
+}
+
+TEST(GarmentCodec, BytesThatAreNotAGarmentAreRefusedSayingWhere) {
+  const std::string bytes = encode_garment(rich_garment());
+  // Every cut-off prefix is refused (never read past its end).
+  for (std::size_t n = 0; n < bytes.size(); n += 1 + n / 50)
+    EXPECT_THROW(decode_garment(std::string_view(bytes).substr(0, n)), InputError) << "prefix of " << n;
+  // A vertex count far larger than the bytes could hold is refused before anything is allocated.
+  Garment small = make_rectangle(0.1, 0.1, 2, 2);
+  small.name = "garment";
+  std::string huge = encode_garment(small);
+  const std::size_t texture_end = 2 + 4 + 7 + 4 + 6 + 7 * 8 + 24 + 8 + 8;
+  for (int k = 0; k < 4; ++k) huge[texture_end + k] = char(0xff);
+  try {
+    decode_garment(huge);
+    ADD_FAILURE() << "a garment claiming 4 billion vertices was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("number of vertices"), std::string::npos) << e.what();
+  }
+}
+
+TEST(GarmentCodec, AFaceNamingAVertexThatDoesNotExistIsRefused) {
+  Garment g = make_rectangle(0.1, 0.1, 2, 2);
+  g.name = "garment";
+  std::string bytes = encode_garment(g);
+  // The first face's first corner, after the header, the empty texture and the four vertices.
+  const std::size_t first_face = 2 + 4 + 7 + 4 + 6 + 7 * 8 + 24 + 8 + 8 + 4 + 4 * 57 + 4;
+  bytes[first_face] = 9;
+  EXPECT_THROW(decode_garment(bytes), InputError);
+}
+
+TEST(BodyCodec, ABodyComesBackExactlyWithItsImportReport) {
+  BodyImportReport rep;
+  rep.format = "Collada";
+  rep.up_source = "option";
+  rep.up = Axis::PosZ;
+  rep.scale = 0.01;
+  rep.meshes_merged = 3;
+  const Body a = Body::from_triangles(small_body().vertices(), small_body().triangles(), "tetra", rep);
+  const Body b = decode_body(encode_body(a));
+  EXPECT_EQ(b.name(), "tetra");
+  EXPECT_EQ(b.vertices(), a.vertices());
+  EXPECT_EQ(b.triangles(), a.triangles());
+  EXPECT_EQ(b.report().format, "Collada");
+  EXPECT_EQ(b.report().up, Axis::PosZ);
+  EXPECT_EQ(b.report().meshes_merged, 3u);
+  const std::string bytes = encode_body(a);
+  for (std::size_t n = 0; n < bytes.size(); ++n) EXPECT_THROW(decode_body(bytes.substr(0, n)), InputError);
+}
+
+TEST(Operation, EveryKindComesBackExactly) {
+  for (const Operation& op : one_of_each()) {
+    const std::string bytes = encode_operation(op);
+    const Operation back = decode_operation(bytes);
+    EXPECT_EQ(back.step, op.step);
+    EXPECT_EQ(back.user, op.user);
+    EXPECT_STREQ(operation_kind(back.data), operation_kind(op.data));
+    EXPECT_EQ(encode_operation(back), bytes) << operation_kind(op.data);
+  }
+  const auto& t = std::get<op::ToolInput>(decode_operation(encode_operation(one_of_each()[0])).data);
+  EXPECT_EQ(t.event.time, 1.0 / 3.0);
+  EXPECT_EQ(t.event.buttons, 3u);
+  EXPECT_EQ(std::get<long long>(t.params.at("count")), 3);
+  EXPECT_EQ(std::get<Vec3>(t.params.at("color")), Vec3(0.1, 0.2, 0.3));
+}
+
+TEST(Operation, DamagedBytesAreRefusedOrReadAsAValidOperationNeverPastTheirEnd) {
+  std::mt19937 rng(7);
+  for (const Operation& op : one_of_each()) {
+    const std::string bytes = encode_operation(op);
+    for (std::size_t n = 0; n < bytes.size(); n += 1 + n / 40)
+      EXPECT_THROW(decode_operation(std::string_view(bytes).substr(0, n)), InputError);
+    for (int trial = 0; trial < 200; ++trial) {
+      std::string bad = bytes;
+      bad[rng() % bad.size()] ^= static_cast<char>(1 + rng() % 255);
+      try {
+        // Read as an operation, it is a whole one: it writes and reads back the same.
+        const std::string again = encode_operation(decode_operation(bad));
+        EXPECT_EQ(encode_operation(decode_operation(again)), again);
+      } catch (const InputError&) {
+      }
+    }
+  }
+  std::string later = encode_operation(one_of_each()[2]);
+  later[0] = 9;
+  try {
+    decode_operation(later);
+    ADD_FAILURE() << "a later format version was read";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("version 9"), std::string::npos) << e.what();
+  }
+}

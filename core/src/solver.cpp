@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -662,6 +663,8 @@ void Solver::step(Garment& garment, double dt) {
   }
 
   State& s = *state_;
+  const auto started = std::chrono::steady_clock::now();
+  const double shared_before = parallel::shared_seconds();
   build_if_needed(s, garment);
 
   // Mirror the mesh into the flat arrays.
@@ -737,6 +740,11 @@ void Solver::step(Garment& garment, double dt) {
 
   const BodyCollider* body = (params_.body_collision && collider_) ? collider_.get() : nullptr;
   s.report = StepReport{};
+  // The report's times (the rest of the step's, below, once it is written back).
+  auto finish_times = [&] {
+    s.report.ms.total = 1000 * std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    s.report.ms.shared = 1000 * (parallel::shared_seconds() - shared_before);
+  };
   if (mass_spring)
     solver_detail::step_mass_spring(s, params_, mat, body, dt);
   else
@@ -749,6 +757,7 @@ void Solver::step(Garment& garment, double dt) {
   });
   if (diverged >= 0) {
     s.built = false;
+    finish_times();
     std::ostringstream msg;
     msg << "the simulation of garment '" << garment.name << "' diverged at vertex " << diverged
         << " (its position or velocity would have become infinite or NaN): the step was undone and the garment is as "
@@ -772,6 +781,7 @@ void Solver::step(Garment& garment, double dt) {
     }
   });
   if (fell_asleep) garment.set_sleep_record(solver_detail::sleep_record(s));
+  finish_times();
 }
 
 StepReport Solver::last_step() const { return state_->report; }

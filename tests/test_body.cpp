@@ -5,11 +5,14 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
+#include <vector>
 
 using namespace kiji;
 using kiji::test::input_error;
@@ -361,4 +364,181 @@ TEST(BodyImportErrors, HeightOfAFlatBody) {
   o.height = 1.7;
   const std::string msg = input_error([&] { Body::load(path, o); });
   EXPECT_NE(msg.find("flat"), std::string::npos) << msg;
+}
+
+// --- Which way a body faces, and low-poly bodies rounded (what kiji drape and Python's Body.load ask
+// for: find_front and smooth). ---
+
+namespace {
+
+BodyImportOptions as_draped(std::optional<double> height = std::nullopt) {
+  BodyImportOptions o;
+  o.find_front = true;
+  o.smooth = true;
+  o.height = height;
+  return o;
+}
+
+// How far the feet (the lowest 4 % of the body) reach ahead of the shins (8-16 %), along +X and +Z,
+// as a share of the height: toes point the way a body faces.
+Vec2 feet_ahead(const Body& b) {
+  const Box3 box = b.bounds();
+  const double h = box.sizes().y(), y0 = box.min().y();
+  Vec3 feet = Vec3::Zero(), shins = Vec3::Zero();
+  int nf = 0, ns = 0;
+  for (const Vec3& p : b.vertices()) {
+    if (p.y() < y0 + 0.04 * h) feet += p, ++nf;
+    else if (p.y() >= y0 + 0.08 * h && p.y() < y0 + 0.16 * h) shins += p, ++ns;
+  }
+  const Vec3 d = feet / nf - shins / ns;
+  return Vec2(d.x(), d.z()) / h;
+}
+
+double median_edge_length(const Body& b) {
+  std::vector<double> e;
+  for (const auto& t : b.triangles())
+    for (int k = 0; k < 3; ++k) e.push_back((b.vertices()[t[(k + 1) % 3]] - b.vertices()[t[k]]).norm());
+  std::nth_element(e.begin(), e.begin() + e.size() / 2, e.end());
+  return e[e.size() / 2];
+}
+
+// The fold between two triangles sharing an edge, in degrees (0 = flat), that all but 1 % of the
+// edges of the body's top quarter stay under: a low-poly crown or shoulder folds sharply at every
+// edge, where a cloth hangs as on a point.
+double folds_at_the_top(const Body& b) {
+  const double top = b.bounds().max().y() - 0.25 * b.height();
+  std::map<std::pair<int, int>, std::vector<Vec3>> normals;
+  for (std::size_t t = 0; t < b.triangles().size(); ++t) {
+    const auto& f = b.triangles()[t];
+    for (int k = 0; k < 3; ++k) {
+      const int i = f[k], j = f[(k + 1) % 3];
+      if (b.vertices()[i].y() >= top && b.vertices()[j].y() >= top)
+        normals[{std::min(i, j), std::max(i, j)}].push_back(b.triangle_normal(t));
+    }
+  }
+  std::vector<double> folds;
+  for (const auto& [edge, n] : normals)
+    if (n.size() == 2) folds.push_back(std::acos(std::clamp(n[0].dot(n[1]), -1.0, 1.0)) * 180 / M_PI);
+  std::sort(folds.begin(), folds.end());
+  return folds.empty() ? 0 : folds[folds.size() * 99 / 100];
+}
+
+const char* kFrontXFbx = R"(; FBX 7.4.0 project file
+FBXHeaderExtension:  {
+	FBXHeaderVersion: 1003
+	FBXVersion: 7400
+	Creator: "Kiji test"
+}
+GlobalSettings:  {
+	Version: 1000
+	Properties70:  {
+		P: "UpAxis", "int", "Integer", "",2
+		P: "UpAxisSign", "int", "Integer", "",1
+		P: "FrontAxis", "int", "Integer", "",0
+		P: "FrontAxisSign", "int", "Integer", "",1
+		P: "UnitScaleFactor", "double", "Number", "",1
+	}
+}
+Objects:  {
+	Geometry: 1000, "Geometry::tet", "Mesh" {
+		Vertices: *12 {
+			a: 0,0,0,10,0,0,0,20,0,0,0,50
+		}
+		PolygonVertexIndex: *12 {
+			a: 0,2,-2,0,1,-4,1,2,-4,2,0,-4
+		}
+		GeometryVersion: 124
+	}
+	Model: 2000, "Model::tet", "Mesh" {
+		Version: 232
+	}
+}
+Connections:  {
+	C: "OO",2000,0
+	C: "OO",1000,2000
+}
+)";
+
+}  // namespace
+
+TEST(BodyFront, TheDefaultBodyAlreadyFacesTheCamera) {
+  const Body plain = Body::load(Body::default_path());
+  const Body b = Body::load(Body::default_path(), as_draped());
+  EXPECT_EQ(b.report().front_source, "feet");
+  EXPECT_EQ(b.report().front, Axis::PosZ);
+  EXPECT_EQ(b.report().smoothing, 0) << "its 6 mm triangles are fine enough";
+  EXPECT_EQ(b.vertices(), plain.vertices());
+  EXPECT_GT(feet_ahead(b).y(), 0.02);
+}
+
+TEST(BodyFront, AQuakeCharacterIsTurnedToFaceTheCamera) {
+  // Quake II models face +X: seen from the camera (+Z), it would show its side.
+  const std::string path = models + "/MD2/sydney.md2";
+  BodyImportOptions plain;
+  plain.height = 1.7;
+  EXPECT_GT(feet_ahead(Body::load(path, plain)).x(), 0.01);
+  const Body b = Body::load(path, as_draped(1.7));
+  EXPECT_EQ(b.report().front_source, "feet");
+  EXPECT_EQ(b.report().front, Axis::PosX);
+  const Vec2 ahead = feet_ahead(b);
+  EXPECT_GT(ahead.y(), 0.01) << "its toes point at the camera now";
+  EXPECT_GT(ahead.y(), std::abs(ahead.x())) << "more than to either side";
+  EXPECT_NEAR(b.height(), 1.7, 1e-9);
+  EXPECT_GT(signed_volume(b), 0) << "the turn is a rotation: the triangles still face out";
+}
+
+TEST(BodyFront, TheFrontOptionWinsAndMustBeAcrossTheUpAxis) {
+  const std::string path = models + "/MD2/sydney.md2";
+  BodyImportOptions o = as_draped(1.7);
+  o.front = Axis::NegX;  // the user says it faces -X: it is turned the other way round
+  const Body b = Body::load(path, o);
+  EXPECT_EQ(b.report().front_source, "option");
+  EXPECT_LT(feet_ahead(b).y(), -0.01);
+  o.front = Axis::PosY;
+  const std::string msg = input_error([&] { Body::load(path, o); });
+  EXPECT_NE(msg.find("front axis option (+y) is along its up axis"), std::string::npos) << msg;
+}
+
+TEST(BodyFront, AnFbxFileSaysWhichWayItFaces) {
+  // A Z-up tetrahedron 10 wide (x), 20 deep (y) and 50 tall, whose file says it faces +X.
+  const std::string path = tmp_file("front_x.fbx", kFrontXFbx);
+  const Body as_is = Body::load(path);
+  EXPECT_EQ(as_is.report().front_source, "as the file has it");
+  EXPECT_NEAR(as_is.bounds().sizes().x(), 0.1, 1e-9);
+  const Body b = Body::load(path, as_draped());
+  EXPECT_EQ(b.report().front_source, "file metadata");
+  EXPECT_EQ(b.report().front, Axis::PosX);
+  EXPECT_NEAR(b.bounds().sizes().z(), 0.1, 1e-9) << "its +X now points at the camera (+Z)";
+  EXPECT_NEAR(b.bounds().sizes().x(), 0.2, 1e-9);
+  EXPECT_NEAR(b.height(), 0.5, 1e-9);
+}
+
+TEST(BodySmoothing, ALowPolyCharacterIsRounded) {
+  const std::string path = models + "/MD2/sydney.md2";
+  BodyImportOptions faceted;
+  faceted.height = 1.7;
+  const Body before = Body::load(path, faceted);
+  const Body b = Body::load(path, as_draped(1.7));
+  EXPECT_EQ(before.report().smoothing, 0);
+  ASSERT_GE(b.report().smoothing, 1);
+  EXPECT_EQ(b.triangles().size(), (std::size_t(1) << (2 * b.report().smoothing)) * before.triangles().size())
+      << "each subdivision makes four triangles of one";
+  EXPECT_GT(median_edge_length(before), 0.05);
+  EXPECT_LE(median_edge_length(b), 0.01 * 1.7);
+  // Its crown and shoulders are rounded off: the folds between neighbouring triangles there.
+  EXPECT_GT(folds_at_the_top(before), 120);
+  EXPECT_LT(folds_at_the_top(b), 70);
+  // The same body, not a shrunken one: as tall (by the option) and as wide within 5 %.
+  EXPECT_NEAR(b.height(), 1.7, 1e-9);
+  EXPECT_NEAR(b.bounds().sizes().x() / before.bounds().sizes().z(), 1.0, 0.05);
+}
+
+TEST(BodySmoothing, AFineBodyOrASolidIsLeftAsItIs) {
+  const Body human = Body::load(Body::default_path(), as_draped());
+  EXPECT_EQ(human.report().smoothing, 0) << "its median edge is 6 mm";
+  EXPECT_EQ(human.triangles().size(), Body::load(Body::default_path()).triangles().size());
+  // A tetrahedron is coarse, but not a model to round: under 100 triangles.
+  const Body tet = Body::load(tmp_file("zup_cm_smooth.dae", kZupCentimetreDae), as_draped());
+  EXPECT_EQ(tet.report().smoothing, 0);
+  EXPECT_EQ(tet.triangles().size(), 4u);
 }

@@ -262,6 +262,28 @@ TEST(Render, BodyAndDenseClothAt1024x768) {
   EXPECT_GT(grey, 10000);
 }
 
+// What a picture shows: a point on the cloth facing the camera is seen; behind a body or another
+// cloth, outside the picture, or behind the camera it is not.
+TEST(Render, VisiblePointsAreThoseThePictureShows) {
+  const Garment back = square(0.0, Vec3(0.8, 0.1, 0.1));
+  const Body box = box_body(0.2, 0.5);  // in front of the cloth's middle, x and y within 0.2
+  const std::vector<Vec3> points = {
+      Vec3(0.4, 0.4, 0.0),     // on the cloth, beside the box: seen
+      Vec3(0.0, 0.0, 0.0),     // on the cloth, behind the box: hidden
+      Vec3(0.0, 0.0, 0.6),     // on the box's front face: seen
+      Vec3(0.4, 0.4, -0.02),   // 2 cm behind the cloth: hidden by it
+      Vec3(0.4, 0.4, 0.002),   // 2 mm in front of the cloth (a brush on its surface): seen
+      Vec3(3.0, 0.0, 0.0),     // outside the picture
+      Vec3(0.0, 0.0, 4.0)};    // behind the camera
+  const auto seen = visible_points({&back}, &box, front_camera(), kSize, kSize, points);
+  ASSERT_EQ(seen.size(), points.size());
+  EXPECT_EQ(seen, (std::vector<bool>{true, false, true, false, true, false, false}));
+  // Without the body, the cloth's middle shows; a looser tolerance lets the point behind it through.
+  EXPECT_TRUE(visible_points({&back}, nullptr, front_camera(), kSize, kSize, {Vec3(0, 0, 0)})[0]);
+  EXPECT_TRUE(visible_points({&back}, nullptr, front_camera(), kSize, kSize, {points[3]}, 0.05)[0]);
+  EXPECT_THROW(visible_points({&back}, nullptr, front_camera(), kSize, kSize, points, -1.0), InputError);
+}
+
 TEST(RenderErrors, BadSizeAndCamera) {
   EXPECT_THROW(render({}, nullptr, front_camera(), 0, 10), InputError);
   EXPECT_THROW(render({}, nullptr, front_camera(), 10, -1), InputError);

@@ -93,6 +93,7 @@ from ._kiji import (
     take_snapshot,
     tool_metadata_json,
     version,
+    visible_points,
     write_png,
 )
 from ._session import (
@@ -127,7 +128,7 @@ __all__ = [
     "place_over_body", "plugin_folders", "plugin_reports", "read_journal", "read_png", "recover", "rectangle",
     "register_tool", "registry", "remove_edge", "remove_edges", "render", "save_journal", "save_operations",
     "split_vertex", "split_vertex_between", "stitch", "strokes_of", "take_snapshot", "tool_info",
-    "tool_metadata_json", "tools", "unregister_tool", "use_registry", "version", "write_png",
+    "tool_metadata_json", "tools", "unregister_tool", "use_registry", "version", "visible_points", "write_png",
 ]
 
 # Last: a tool package's module may itself `import kiji` and subclass kiji.Tool.

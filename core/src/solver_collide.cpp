@@ -76,6 +76,7 @@ void set_body(SolverArrays& s, const Body* body) {
     b.extend(bt.a);
     b.extend(bt.b);
     b.extend(bt.c);
+    if (BodyCollider::degenerate(*body, t)) b.setEmpty();  // no candidate (see BodyCollider)
     s.body_tris.push_back(bt);
     s.body_boxes.push_back(b);
     s.body_bounds.extend(b);

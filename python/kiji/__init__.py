@@ -46,6 +46,7 @@ from ._kiji import (
     Operation,
     ParamSpec,
     ScriptedDevice,
+    SimulationError,
     Solver,
     SolverParams,
     StepReport,
@@ -117,7 +118,7 @@ _member_docs.apply()
 __all__ = [
     "Body", "BodyCollider", "BodyContact", "Camera", "ClothMeasures", "DrapeResult", "Error", "Feedback",
     "Garment", "HapticLoop", "HapticSnapshot", "HistoryStep", "InputDevice", "InputError", "JournalFile",
-    "JournalStroke", "Material", "Operation", "ParamSpec", "ScriptedDevice", "Session", "Solver", "SolverParams",
+    "JournalStroke", "Material", "Operation", "ParamSpec", "ScriptedDevice", "Session", "SimulationError", "Solver", "SolverParams",
     "StepReport", "SurfaceHit", "Tool", "ToolEvent", "ToolHaptics", "ToolInfo", "ToolInstance", "ToolRegistry", "ToolSession",
     "TopologyError", "ENTRY_POINT_GROUP", "JOURNAL_FILE_VERSION", "OPERATION_FORMAT_VERSION", "PACKAGE_PLUGIN_FOLDER",
     "SESSION_CHANNEL", "SESSION_FILE_PROTOCOL", "abi_tag", "append_garment", "axis_names", "border_loops",

@@ -1,14 +1,19 @@
 // The kiji command line as a user runs it: exit codes, messages, files written.
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <string>
 #include <vector>
 
 namespace {
+
+using json = nlohmann::json;
 
 struct CliRun {
   int code = -1;
@@ -108,20 +113,89 @@ TEST(Cli, ToolsListsThePluginsWithTheirParameters) {
 TEST(Cli, BenchPrintsEveryFigureAsJson) {
   CliRun r = run("bench --quick --json");
   ASSERT_EQ(r.code, 0) << r.out;
-  for (const char* field :
-       {"\"paper\":", "\"tool_rates\":", "\"vertices\": 289", "\"pinch\": {\"steps_per_second\":", "\"pinch_local\":", "\"local_radius_m\":", "\"moving_vertices\":", "\"tear\":",
-        "\"cut\":", "\"sew\":", "\"paint\":", "\"frames_per_second\":", "\"versus_bullet\":", "\"xpbd\":",
-        "\"mass_spring\":", "\"bullet\":", "\"speedup_xpbd_over_bullet\":", "\"matched_substeps\":", "\"xpbd_matched\":",
-        "\"speedup_at_equal_strain\":", "\"matched_strain_limit\":", "\"setup_ms\":", "\"max_strain\":", "\"sag_m\":",
-        "\"haptics\":", "\"loop_hz\":", "\"jitter_us\":", "\"force_median_us\":", "\"force_p99_us\":", "\"realtime\":",
-        "\"scaling\":", "\"ms_per_step\":", "\"falling_median_us_per_vertex\":",
-        "\"landing_median_us_per_vertex\":", "\"landing_self_pairs_per_vertex\":",
-        "\"landing_self_gathers_per_step\":", "\"landing_strain_limited_share\":",
-        "\"landing_edges_moved_per_substep\":", "\"bytes_per_vertex\":", "\"scaling_substeps\": 10,",
-        "\"scaling_growth\":", "\"falling_exponent_all_sizes\":",
-        "\"falling_exponent_largest_two\":", "\"landing_exponent_all_sizes\":", "\"landing_exponent_largest_two\":"})
-    EXPECT_NE(r.out.find(field), std::string::npos) << field << " missing";
+  const json d = json::parse(r.out, nullptr, false);
+  ASSERT_FALSE(d.is_discarded()) << "not one JSON document: " << r.out;
   EXPECT_EQ(r.out.find("null"), std::string::npos) << "every figure measured: " << r.out;
+  auto positive = [](const json& v) { return v.is_number() && std::isfinite(v.get<double>()) && v.get<double>() > 0; };
+  EXPECT_GE(d.at("threads").get<int>(), 1);
+
+  // The paper's own figures, beside Kiji's: its three sizes, one rate for each.
+  EXPECT_EQ(d.at("paper").at("sizes"), json({289, 400, 521}));
+  for (const char* table : {"without_edges", "with_edges"})
+    for (const char* tool : {"pinch", "tear", "cut", "sew", "paint"}) {
+      const json& rates = d.at("paper").at(table).at(tool);
+      ASSERT_EQ(rates.size(), 3u) << table << "." << tool;
+      for (const json& v : rates) EXPECT_TRUE(positive(v)) << table << "." << tool;
+    }
+
+  // Kiji's rows: one a size asked for, every tool measured, every rate a positive number.
+  ASSERT_FALSE(d.at("tool_rates").empty());
+  EXPECT_EQ(d.at("tool_rates")[0].at("vertices"), 289);
+  for (const json& row : d.at("tool_rates")) {
+    const int vertices = row.at("vertices").get<int>();
+    for (const char* tool : {"pinch", "pinch_local", "pinch_landing", "tear", "cut", "sew", "paint"}) {
+      EXPECT_TRUE(positive(row.at(tool).at("steps_per_second"))) << vertices << " " << tool;
+      EXPECT_TRUE(positive(row.at(tool).at("frames_per_second"))) << vertices << " " << tool;
+    }
+    // The local region moves some of the cloth, not all of it.
+    const json& local = row.at("pinch_local");
+    EXPECT_TRUE(positive(local.at("local_radius_m")));
+    EXPECT_GT(local.at("moving_vertices").get<int>(), 0);
+    EXPECT_LT(local.at("moving_vertices").get<int>(), vertices);
+  }
+
+  // Against Bullet: each speed-up is the ratio of the times printed beside it, and the matched
+  // settings' strain is no worse than Bullet's (what "at equal strain" means).
+  ASSERT_FALSE(d.at("versus_bullet").empty());
+  for (const json& row : d.at("versus_bullet")) {
+    SCOPED_TRACE(row.dump());
+    for (const char* solver : {"xpbd", "mass_spring", "bullet", "xpbd_matched"}) {
+      const json& s = row.at(solver);
+      EXPECT_TRUE(positive(s.at("ms_per_step"))) << solver;
+      EXPECT_TRUE(positive(s.at("sag_m"))) << solver << ": a cloth held by its top edge sags";
+      EXPECT_GE(s.at("max_strain").get<double>(), s.at("mean_strain").get<double>()) << solver;
+      EXPECT_GE(s.at("mean_strain").get<double>(), 0.0) << solver;
+    }
+    const double bullet_ms = row.at("bullet").at("ms_per_step").get<double>();
+    EXPECT_NEAR(row.at("speedup_xpbd_over_bullet").get<double>(), bullet_ms / row.at("xpbd").at("ms_per_step").get<double>(),
+                1e-3 * row.at("speedup_xpbd_over_bullet").get<double>());
+    EXPECT_NEAR(row.at("speedup_at_equal_strain").get<double>(),
+                bullet_ms / row.at("xpbd_matched").at("ms_per_step").get<double>(),
+                1e-3 * row.at("speedup_at_equal_strain").get<double>());
+    EXPECT_LE(row.at("xpbd_matched").at("max_strain").get<double>(), row.at("bullet").at("max_strain").get<double>());
+    EXPECT_GE(row.at("matched_substeps").get<int>(), 1);
+  }
+
+  // The haptic loop: its rate is at most the 1 kHz it is paced at, and a median at most the 99th
+  // percentile.
+  const json& h = d.at("haptics");
+  EXPECT_TRUE(positive(h.at("loop_hz")));
+  EXPECT_LE(h.at("loop_hz").get<double>(), 1000.0 * 1.01);
+  EXPECT_GT(h.at("ticks").get<int>(), 0);
+  EXPECT_GE(h.at("jitter_us").get<double>(), 0.0);
+  EXPECT_LE(h.at("force_median_us").get<double>(), h.at("force_p99_us").get<double>());
+  EXPECT_TRUE(positive(h.at("simulation_ms_per_step")));
+
+  // Scaling: per-vertex figures are the step's time over the vertices, shares are shares.
+  EXPECT_EQ(d.at("scaling_substeps"), 10);
+  ASSERT_GE(d.at("scaling").size(), 2u);
+  for (const json& row : d.at("scaling")) {
+    SCOPED_TRACE(row.dump());
+    const double v = row.at("vertices").get<double>();
+    EXPECT_NEAR(row.at("us_per_vertex").get<double>() * v / 1000, row.at("ms_per_step").get<double>(),
+                1e-3 * row.at("ms_per_step").get<double>());
+    for (const char* figure : {"falling_median_us_per_vertex", "landing_median_us_per_vertex", "bytes_per_vertex"})
+      EXPECT_TRUE(positive(row.at(figure))) << figure;
+    EXPECT_GE(row.at("landing_strain_limited_share").get<double>(), 0.0);
+    EXPECT_LE(row.at("landing_strain_limited_share").get<double>(), 1.0);
+    EXPECT_GE(row.at("landing_self_gathers_per_step").get<double>(), 0.0);
+    EXPECT_GE(row.at("landing_self_pairs_per_vertex").get<double>(), 0.0);
+    EXPECT_GE(row.at("landing_edges_moved_per_substep").get<double>(), 0.0);
+  }
+  for (const char* exponent : {"falling_exponent_all_sizes", "falling_exponent_largest_two", "landing_exponent_all_sizes",
+                               "landing_exponent_largest_two"})
+    EXPECT_TRUE(std::isfinite(d.at("scaling_growth").at(exponent).get<double>())) << exponent;
+
   r = run("bench --sizes 3,x");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("--sizes expects vertex counts"), std::string::npos) << r.out;
@@ -139,14 +213,12 @@ TEST(Cli, BenchToolsPicksTheRowsOfThePapersTables) {
   CliRun r = run("bench --quick --json --sizes 289 --tools pinch_local,sew");
   ASSERT_EQ(r.code, 0) << r.out;
   // The measured rows (the paper's own figures, beside them, have every tool).
-  const std::size_t from = r.out.find("\"tool_rates\":"), to = r.out.find("\"versus_bullet\":");
-  ASSERT_NE(from, std::string::npos);
-  ASSERT_NE(to, std::string::npos);
-  const std::string rates = r.out.substr(from, to - from);
-  EXPECT_NE(rates.find("\"pinch_local\": {\"steps_per_second\":"), std::string::npos) << rates;
-  EXPECT_NE(rates.find("\"sew\": {\"steps_per_second\":"), std::string::npos) << rates;
-  for (const char* absent : {"\"pinch\":", "\"pinch_landing\":", "\"tear\":", "\"cut\":", "\"paint\":"})
-    EXPECT_EQ(rates.find(absent), std::string::npos) << absent << " was not asked for: " << rates;
+  // The measured rows (the paper's own figures, beside them, have every tool).
+  const nlohmann::json rates = nlohmann::json::parse(r.out)["tool_rates"].at(0);
+  EXPECT_TRUE(rates["pinch_local"]["steps_per_second"].is_number()) << rates;
+  EXPECT_TRUE(rates["sew"]["steps_per_second"].is_number()) << rates;
+  for (const char* absent : {"pinch", "pinch_landing", "tear", "cut", "paint"})
+    EXPECT_FALSE(rates.contains(absent)) << absent << " was not asked for: " << rates;
 }
 
 // --scaling-substeps reaches the scaling section's solver: at twice the substeps the landing moves
@@ -154,16 +226,15 @@ TEST(Cli, BenchToolsPicksTheRowsOfThePapersTables) {
 TEST(Cli, BenchScalingSubstepsSetsTheScalingSolversSubsteps) {
   auto edges_moved = [](const std::string& out) {
     std::vector<double> found;
-    const std::string key = "\"landing_edges_moved_per_substep\": ";
-    for (std::size_t at = out.find(key); at != std::string::npos; at = out.find(key, at + 1))
-      found.push_back(std::stod(out.substr(at + key.size())));
+    const nlohmann::json j = nlohmann::json::parse(out);
+    for (const auto& size : j["scaling"]) found.push_back(size["landing_edges_moved_per_substep"]);
     return found;
   };
   const std::string rest = " --quick --json --sizes 289 --tools pinch --scaling-sizes 400";
   CliRun r10 = run("bench" + rest), r20 = run("bench --scaling-substeps 20" + rest);
   ASSERT_EQ(r10.code, 0) << r10.out;
   ASSERT_EQ(r20.code, 0) << r20.out;
-  EXPECT_NE(r20.out.find("\"scaling_substeps\": 20,"), std::string::npos) << r20.out;
+  EXPECT_EQ(nlohmann::json::parse(r20.out)["scaling_substeps"], 20) << r20.out;
   const std::vector<double> at10 = edges_moved(r10.out), at20 = edges_moved(r20.out);
   ASSERT_EQ(at10.size(), 1u) << r10.out;
   ASSERT_EQ(at20.size(), 1u) << r20.out;

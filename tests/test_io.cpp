@@ -2,11 +2,13 @@
 #include "kiji/body.h"
 #include "kiji/error.h"
 #include "test_errors.h"
+#include "test_png.h"
 #include "kiji/io.h"
 #include "kiji/pattern.h"
 #include "kiji/render.h"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <filesystem>
 #include <fstream>
@@ -273,4 +275,97 @@ TEST(GarmentFileErrors, MissingEmptyAndBrokenFiles) {
 TEST(GarmentFileErrors, EmptyGarmentIsNotExported) {
   Garment g;
   EXPECT_NE(input_error([&] { export_garment(g, tmp_path("nothing.glb")); }).find("no faces"), std::string::npos);
+}
+
+TEST(GarmentFileErrors, AFaceThatNamesAVertexTheFileDoesNotHaveIsRefused) {
+  // Three vertices, and a face that names a fourth (or, counted from the end, one before the first,
+  // or a texture coordinate the file lacks): refused by Kiji itself, naming the line and the count,
+  // before assimp builds (and, refusing it, leaks) the meshes.
+  const std::pair<const char*, const char*> cases[] = {
+      {"f 1 2 4", "vertex 4, but the file has 3"},
+      {"f 1 2 99999999999999999999", "the file has 3"},
+      {"f -1 -2 -4", "vertex -4 (counted back), but only 3 come before it"},
+      {"f 1/5 2/5 3/5", "texture coordinate 5, but the file has 0"},
+      {"f 0 1 2", "vertex 0 (OBJ counts from 1)"},
+  };
+  for (const auto& [face, says] : cases) {
+    SCOPED_TRACE(face);
+    const std::string path = tmp_path("bad_index.obj");
+    std::ofstream(path) << "v 0 0 0\nv 1 0 0\nv 0 1 0\n" << face << "\n";
+    const std::string msg = input_error([&] { import_garment(path); });
+    EXPECT_NE(msg.find(path), std::string::npos) << msg;
+    EXPECT_NE(msg.find("line 4"), std::string::npos) << msg;
+    EXPECT_NE(msg.find(says), std::string::npos) << msg;
+  }
+  // Counting back from the face is the file's to do.
+  const std::string path = tmp_path("good_index.obj");
+  std::ofstream(path) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf -3/-1 -2/-1 -1/-1\n";
+  EXPECT_EQ(import_garment(path).mesh().number_of_faces(), 1u);
+}
+
+TEST(GarmentFileErrors, AnEmbeddedTextureDeclaringAHugeImageIsRefused) {
+  // An exported .glb whose embedded PNG is rewritten to declare another size: the import refuses
+  // it before allocating its pixels, and says what the limit is.
+  Garment g = seamed_garment();
+  g.texture() = test_texture();
+  const std::string path = tmp_path("huge_texture.glb");
+  export_garment(g, path);
+  const std::string original = slurp(path);
+  const std::size_t png = original.find("\x89PNG");
+  ASSERT_NE(png, std::string::npos);
+  for (std::uint32_t side : {30000u, 8192u}) {
+    std::string bytes = original;
+    ASSERT_TRUE(test::declare_png_size(bytes, png, side, side));
+    std::ofstream(path, std::ios::binary) << bytes;
+    const std::string msg = input_error([&] { import_garment(path); });
+    EXPECT_NE(msg.find("its texture '*0' is a broken PNG"), std::string::npos) << msg;
+    EXPECT_NE(msg.find(side > 16384 ? "is larger than Kiji reads (at most 16384 pixels a side"
+                                    : "more than a PNG file of its size can hold"),
+              std::string::npos)
+        << msg;
+  }
+}
+
+TEST(GarmentFileErrors, AGlbImageOfAMimeTypeGltfDoesNotAllowIsRefused) {
+  // assimp 5.2 reads freed memory on an image whose MIME type is neither of glTF's two; found by
+  // fuzz_garment_glb. The same bytes are refused as a body too.
+  Garment g = seamed_garment();
+  g.texture() = test_texture();
+  const std::string path = tmp_path("odd_mime.glb");
+  export_garment(g, path);
+  std::string bytes = slurp(path);
+  const std::size_t at = bytes.find("\"image/png\"");
+  ASSERT_NE(at, std::string::npos);
+  bytes.replace(at, 11, "\"imageglbg\"");  // the length of the JSON chunk stays the same
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+  for (bool body : {false, true}) {
+    const std::string msg = input_error([&] { body ? (void)Body::load(path) : (void)import_garment(path); });
+    EXPECT_NE(msg.find(path), std::string::npos) << msg;
+    EXPECT_NE(msg.find("image 0 has the MIME type \"imageglbg\", and glTF allows only"), std::string::npos) << msg;
+  }
+}
+
+TEST(GarmentFileErrors, ATextureBesideAnObjThatIsNotARegularFileIsRefusedWithoutBlocking) {
+  Garment g = seamed_garment();
+  g.texture() = test_texture();
+  const std::string path = tmp_path("fifo_texture.obj"), png = tmp_path("fifo_texture.png");
+  std::filesystem::remove(png);
+  export_garment(g, path);
+  std::filesystem::remove(png);
+  ASSERT_EQ(mkfifo(png.c_str(), 0600), 0);  // opening it for reading would wait for a writer
+  const std::string msg = input_error([&] { import_garment(path); });
+  EXPECT_NE(msg.find("cannot be read from '" + png + "' (it is not a regular file)"), std::string::npos) << msg;
+  // And writing into it would wait for a reader: the export refuses it too, as it does a FIFO in
+  // the garment file's own place.
+  const std::string again = input_error([&] { export_garment(g, path); });
+  EXPECT_NE(again.find("its texture '" + png + "' cannot be written: it exists and is not a regular file"),
+            std::string::npos)
+      << again;
+  const std::string fifo_glb = tmp_path("fifo_garment.glb");
+  std::filesystem::remove(fifo_glb);
+  ASSERT_EQ(mkfifo(fifo_glb.c_str(), 0600), 0);
+  EXPECT_NE(input_error([&] { export_garment(g, fifo_glb); }).find("it exists and is not a regular file"),
+            std::string::npos);
+  std::filesystem::remove(png);
+  std::filesystem::remove(fifo_glb);
 }

@@ -7,6 +7,7 @@
 #include "kiji/session.h"
 
 #include <dlfcn.h>
+#include <sys/stat.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -28,6 +29,8 @@ const fs::path kGood = fs::path(KIJI_TEST_PLUGIN_DIR) / "good";
 const fs::path kRaw = fs::path(KIJI_TEST_PLUGIN_DIR) / "raw";
 const fs::path kGoodLibrary = kGood / "kiji_probe.so";
 const fs::path kGoodMetadata = kGood / "kiji_probe.json";
+// The tag probe_tool.cpp claims when built with KIJI_TEST_OTHER_ABI.
+const std::string kOtherAbi = "kiji=0.1;compiler=gcc1;stdlib=libstdc++0;cgal=0.0;eigen=0.0.0;scalar=float";
 
 #define EXPECT_CONTAINS(text, part) \
   EXPECT_NE(std::string(text).find(part), std::string::npos) << "expected \"" << (part) << "\" in: " << (text)
@@ -102,6 +105,9 @@ class PluginLoaderTest : public ::testing::Test {
     EXPECT_TRUE(registry.ids().empty());
     return report;
   }
+
+  // Metadata changes for the broken tool's builds (they describe the probe otherwise).
+  static void broken_id(json& j) { j["id"] = "broken"; }
 
   fs::path dir_;
 };
@@ -288,19 +294,68 @@ TEST_F(PluginLoaderTest, RefusesALibraryWithoutTheEntryPoint) {
 }
 
 TEST_F(PluginLoaderTest, RefusesAnotherAbiFromTheMetadataWithoutLoading) {
-  const std::string other = "kiji0.1;gcc1;libstdc++0;cgal0.0;eigen0.0;float";
+  const std::string other = kOtherAbi + ";layout=ToolEvent:1/1";
   const fs::path lib = add_plugin("kiji_old", kGoodLibrary, [&](json& j) { j["abi"] = other; });
   const PluginReport r = refused(lib);
   EXPECT_FALSE(is_loaded(lib)) << "refused from its metadata, the library must not be opened";
   EXPECT_EQ(r.id, "probe");
   EXPECT_CONTAINS(r.message, "was built for another ABI (" + other + ")");
   EXPECT_CONTAINS(r.message, kiji::abi_tag());
+  // Each part that differs is named, with what to do.
+  EXPECT_CONTAINS(r.message, "compiler differs (plugin gcc1, this Kiji " KIJI_COMPILER_TAG ")");
+  EXPECT_CONTAINS(r.message, "scalar differs (plugin float, this Kiji double)");
+  EXPECT_CONTAINS(r.message, "build it with the compiler Kiji was built with");
 }
 
 TEST_F(PluginLoaderTest, RefusesABinaryOfAnotherAbiWhoseMetadataClaimsThisOne) {
   const PluginReport r = refused(add_plugin("kiji_liar", kRaw / "kiji_test_other_abi.so"));
-  EXPECT_CONTAINS(r.message, "kiji0.1;gcc1;libstdc++0;cgal0.0;eigen0.0;float");
+  EXPECT_CONTAINS(r.message, kOtherAbi);
   EXPECT_CONTAINS(r.message, "though its metadata says otherwise");
+  EXPECT_CONTAINS(r.message, "cgal differs (plugin 0.0, this Kiji " CGAL_VERSION_STR ")");
+}
+
+TEST_F(PluginLoaderTest, RefusesAToolBuiltWithAvxWhoseEventsAreLaidOutOtherwise) {
+#if !defined(KIJI_TEST_AVX) || EIGEN_MAX_STATIC_ALIGN_BYTES >= 32
+  GTEST_SKIP() << "-mavx is an x86-64 flag, and changes nothing where Kiji itself is built with it";
+#else
+  // With AVX Eigen aligns Quaterniond to 32 bytes, so ToolEvent::orientation and every member after
+  // it move: the plugin would read the host's events at the wrong offsets. Its metadata says
+  // nothing of it (it claims this Kiji's tag); its binary tells.
+  const PluginReport r = refused(add_plugin("kiji_avx", kRaw / "kiji_test_avx.so"));
+  EXPECT_CONTAINS(r.message, "though its metadata says otherwise");
+  EXPECT_CONTAINS(r.message, "eigen_align differs (plugin 32/32, this Kiji 16/16)");
+  EXPECT_CONTAINS(r.message, "-mavx");
+  EXPECT_CONTAINS(r.message, "layout differs (plugin ToolEvent:");
+  EXPECT_CONTAINS(r.message, "ToolEvent:" + std::to_string(sizeof(kiji::ToolEvent)) + "/16");
+#endif
+}
+
+TEST(AbiTag, NamesEveryPartThatDecidesTheLayoutOfWhatToolsReceive) {
+  const std::string tag = kiji::abi_tag();
+  for (const char* field : {"kiji=", ";compiler=", ";stdlib=", ";stl_debug=", ";cgal=", ";eigen=", ";eigen_align=",
+                            ";eigen_index=", ";eigen_order=", ";scalar=double", ";layout="})
+    EXPECT_CONTAINS(tag, field);
+  EXPECT_CONTAINS(tag, "eigen_align=" + std::to_string(EIGEN_MAX_STATIC_ALIGN_BYTES) + "/" +
+                           std::to_string(EIGEN_MAX_ALIGN_BYTES));
+  EXPECT_CONTAINS(tag, "ToolEvent:" + std::to_string(sizeof(kiji::ToolEvent)) + "/" +
+                           std::to_string(alignof(kiji::ToolEvent)));
+  EXPECT_CONTAINS(tag, "Quaterniond:" + std::to_string(sizeof(Eigen::Quaterniond)) + "/" +
+                           std::to_string(alignof(Eigen::Quaterniond)));
+  EXPECT_EQ(kiji::abi_difference(tag, tag), "");
+}
+
+TEST(AbiTag, ADifferenceSaysWhichPartDiffersAndWhatToDo) {
+  const std::string host = "kiji=0.2;eigen_align=16/16;layout=ToolEvent:168/16";
+  EXPECT_EQ(kiji::abi_difference(host, host), "");
+  const std::string diff = kiji::abi_difference("kiji=0.2;eigen_align=32/32;layout=ToolEvent:192/32", host);
+  EXPECT_CONTAINS(diff, "eigen_align differs (plugin 32/32, this Kiji 16/16)");
+  EXPECT_CONTAINS(diff, "layout differs (plugin ToolEvent:192/32, this Kiji ToolEvent:168/16)");
+  EXPECT_EQ(diff.find("kiji differs"), std::string::npos) << diff;
+  EXPECT_CONTAINS(kiji::abi_difference("kiji=0.2;eigen_align=16/16", host), "layout differs (plugin (none)");
+  EXPECT_CONTAINS(kiji::abi_difference(host + ";extra=1", host), "extra differs (plugin 1, this Kiji (none))");
+  EXPECT_CONTAINS(kiji::abi_difference("kiji0.1;gcc12;double", host), "built against an older Kiji");
+  EXPECT_CONTAINS(kiji::abi_difference("eigen_align=16/16;kiji=0.2;layout=ToolEvent:168/16", host),
+                  "is not one this Kiji writes");
 }
 
 TEST_F(PluginLoaderTest, RefusesAnotherInterfaceVersionFromTheMetadataWithoutLoading) {
@@ -391,6 +446,185 @@ TEST_F(PluginLoaderTest, RefusesMetadataThatNamesAnotherIdThanTheLibraryMakes) {
   EXPECT_TRUE(registry.ids().empty());
 }
 
+// --- plugins whose code misbehaves: each is a refused plugin or a failed stroke, never a crash ---
+
+TEST_F(PluginLoaderTest, RefusesAPluginWhoseCreateReturnsNoTool) {
+  const PluginReport r = refused(add_plugin("kiji_null", kRaw / "kiji_test_create_null.so", broken_id));
+  EXPECT_EQ(r.id, "broken");
+  EXPECT_CONTAINS(r.message, "kiji_null.so cannot make its tool: its create() returned no tool (a null pointer)");
+}
+
+TEST_F(PluginLoaderTest, RefusesAPluginWhoseCreateThrowsSomethingNotAnException) {
+  const PluginReport r = refused(add_plugin("kiji_int", kRaw / "kiji_test_create_throws_int.so", broken_id));
+  EXPECT_CONTAINS(r.message, "its create() threw something that is not a std::exception");
+}
+
+TEST_F(PluginLoaderTest, RefusesAPluginWhoseCreateThrowsAnExceptionOfItsOwn) {
+  // The exception's what() and destructor are the plugin's code: the message is copied out and the
+  // exception gone before the library is closed.
+  const fs::path lib = add_plugin("kiji_own", kRaw / "kiji_test_create_throws_own.so", broken_id);
+  const PluginReport r = refused(lib);
+  EXPECT_CONTAINS(r.message, "its create() threw: the plugin's own exception, thrown by create()");
+  EXPECT_FALSE(is_loaded(lib)) << "a refused library is closed";
+}
+
+TEST_F(PluginLoaderTest, RefusesAPluginWhoseToolCannotDescribeItself) {
+  const PluginReport r = refused(add_plugin("kiji_info", kRaw / "kiji_test_info_throws.so", broken_id));
+  EXPECT_CONTAINS(r.message, "cannot describe its tool: its tool's info() threw something that is not a std::exception");
+}
+
+TEST_F(PluginLoaderTest, APluginThatStopsMakingToolsIsAnErrorWhenATaskNeedsOne) {
+  ToolRegistry registry;
+  const PluginReport r = registry.load_plugin(add_plugin("kiji_later", kRaw / "kiji_test_create_null_later.so", broken_id).string());
+  ASSERT_TRUE(r.loaded) << r.message << " (its first tool, the loader's probe, was made)";
+  try {
+    registry.create("broken");
+    ADD_FAILURE() << "a null tool was handed out";
+  } catch (const kiji::Error& e) {
+    EXPECT_CONTAINS(e.what(), "tool 'broken' from " + (dir_ / "kiji_later.so").string() + " cannot be created");
+    EXPECT_CONTAINS(e.what(), "its create() returned no tool");
+  }
+}
+
+TEST_F(PluginLoaderTest, AToolThrowingSomethingNotAnExceptionFailsItsStrokeAndLosesNothing) {
+  auto registry = std::make_shared<ToolRegistry>();
+  const PluginReport r = registry->load_plugin(add_plugin("kiji_begin", kRaw / "kiji_test_begin_throws_int.so", broken_id).string());
+  ASSERT_TRUE(r.loaded) << r.message;
+  kiji::Session session(registry);
+  session.set_simulating(false);
+  session.add_garment(kiji::make_rectangle(1.0, 1.0, 5, 5));
+  const kiji::Garment before = session.garment(0);
+  const std::size_t entries = session.journal().entries().size();  // the garment's, the settings'
+  kiji::ToolEvent e;
+  e.position = before.position(kiji::Vertex(12));
+  e.phase = kiji::Phase::Begin;
+  kiji::Stroke stroke{e};
+  e.phase = kiji::Phase::End;
+  stroke.push_back(e);
+  try {
+    session.run("broken", session.params_for("broken"), stroke);
+    ADD_FAILURE() << "the stroke did not fail";
+  } catch (const kiji::Error& error) {
+    EXPECT_CONTAINS(error.what(), "tool 'broken'");
+    EXPECT_CONTAINS(error.what(), "threw something that is not a std::exception from begin()");
+  }
+  EXPECT_FALSE(session.stroke_active());
+  EXPECT_EQ(session.journal().entries().size(), entries) << "the failed stroke is not in the journal";
+  for (kiji::Vertex v : before.mesh().vertices()) EXPECT_EQ(session.garment(0).position(v), before.position(v));
+  // The session goes on: the next stroke runs (and fails the same way, cleanly).
+  EXPECT_THROW(session.run("broken", session.params_for("broken"), stroke), kiji::Error);
+  EXPECT_FALSE(session.stroke_active());
+}
+
+TEST_F(PluginLoaderTest, ToolsAreGivenBackToThePluginsOwnDestroy) {
+  // The pool plugin makes its tools in memory of its own: freed with the host's delete, the process
+  // would abort; only its destroy can take them back.
+  const fs::path lib = add_plugin("kiji_pool", kRaw / "kiji_test_pool.so", [](json& j) { j["id"] = "pool"; });
+  auto registry = std::make_shared<ToolRegistry>();
+  ASSERT_TRUE(registry->load_plugin(lib.string()).loaded);
+  void* handle = dlopen(lib.c_str(), RTLD_NOW | RTLD_NOLOAD);
+  ASSERT_NE(handle, nullptr);
+  auto made = reinterpret_cast<int (*)()>(dlsym(handle, "kiji_test_pool_made"));
+  auto destroyed = reinterpret_cast<int (*)()>(dlsym(handle, "kiji_test_pool_destroyed"));
+  ASSERT_TRUE(made && destroyed);
+  EXPECT_EQ(made(), 1) << "the loader's probe";
+  EXPECT_EQ(destroyed(), 1) << "the probe went back to the plugin";
+  {
+    std::unique_ptr<kiji::Tool> a = registry->create("pool"), b = registry->create("pool");
+    EXPECT_EQ(a->info().id, "pool");
+    EXPECT_EQ(made(), 3);
+    EXPECT_EQ(destroyed(), 1);
+  }
+  EXPECT_EQ(destroyed(), 3);
+  {
+    kiji::Session session(registry);
+    session.tool("pool");
+  }
+  EXPECT_EQ(made(), 4);
+  EXPECT_EQ(destroyed(), 4) << "a session's tools go back to the plugin too";
+  dlclose(handle);
+}
+
+TEST_F(PluginLoaderTest, RefusesMetadataThatNamesALibraryElsewhere) {
+  for (const std::string& name : std::vector<std::string>{"../kiji_probe.so", kGoodLibrary.string(), "..", ""}) {
+    SCOPED_TRACE(name);
+    write_text(dir_ / "kiji_elsewhere.json", [&] {
+      json meta = good_metadata();
+      meta["library"] = name;
+      return meta.dump();
+    }());
+    const PluginReport r = refused(dir_ / "kiji_elsewhere.json");
+    EXPECT_CONTAINS(r.message, "not the file name of a library beside it");
+  }
+  write_text(dir_ / "kiji_elsewhere.json", [&] {
+    json meta = good_metadata();
+    meta["library"] = 3;
+    return meta.dump();
+  }());
+  EXPECT_CONTAINS(refused(dir_ / "kiji_elsewhere.json").message, "its field 'library' is not a string");
+}
+
+TEST_F(PluginLoaderTest, RefusesMetadataThatIsNotARegularFileOrIsHuge) {
+  // A FIFO would block the host forever on open; a directory or a huge file is not metadata.
+  ASSERT_EQ(mkfifo((dir_ / "kiji_fifo.json").c_str(), 0600), 0);
+  EXPECT_CONTAINS(refused(dir_ / "kiji_fifo.json").message, "it is not a regular file");
+  fs::create_directory(dir_ / "kiji_dir.json");
+  EXPECT_CONTAINS(refused(dir_ / "kiji_dir.json").message, "it is not a regular file");
+  write_text(dir_ / "kiji_huge.json", std::string(2 << 20, ' '));
+  EXPECT_CONTAINS(refused(dir_ / "kiji_huge.json").message, "2097152 bytes, not metadata (at most 1048576 bytes)");
+  // A library that is a FIFO is refused before dlopen would block on it.
+  ASSERT_EQ(mkfifo((dir_ / "kiji_fifo_lib.so").c_str(), 0600), 0);
+  write_text(dir_ / "kiji_fifo_lib.json", [&] {
+    json meta = good_metadata();
+    meta["library"] = "kiji_fifo_lib.so";
+    return meta.dump();
+  }());
+  EXPECT_CONTAINS(refused(dir_ / "kiji_fifo_lib.json").message, "kiji_fifo_lib.so is not a regular file");
+}
+
+TEST_F(PluginLoaderTest, RefusesAToolWhoseDescriptionWouldNotWorkInAHost) {
+  // kiji-plugin-meta refuses these at build time; a library built otherwise meets the same check.
+  struct Described : kiji::Tool {
+    explicit Described(kiji::ToolInfo info) : info_(std::move(info)) {}
+    kiji::ToolInfo info() const override { return info_; }
+    kiji::Feedback begin(kiji::Session&, const kiji::ParamSet&, const kiji::ToolEvent&) override { return {}; }
+    kiji::Feedback update(kiji::Session&, const kiji::ToolEvent&) override { return {}; }
+    void end(kiji::Session&, const kiji::ToolEvent&) override {}
+    void cancel(kiji::Session&) override {}
+    kiji::ToolInfo info_;
+  };
+  auto refusal = [](const std::string& id, kiji::ToolInfo info) {
+    ToolRegistry registry;
+    try {
+      registry.add(id, [info] { return std::make_unique<Described>(info); });
+    } catch (const kiji::InputError& e) {
+      EXPECT_FALSE(registry.has(id));
+      return std::string(e.what());
+    }
+    ADD_FAILURE() << "accepted " << id;
+    return std::string();
+  };
+  using kiji::ParamSpec;
+  EXPECT_CONTAINS(refusal("my-tool", {"my-tool", "Mine", "", {}}), "not a verb usable as a Python name");
+  EXPECT_CONTAINS(refusal("mine", {"mine", "", "", {}}), "tool 'mine' has no label");
+  // Declared field by field, as a plugin built without the builders' checks could.
+  auto spec = [](const std::string& name, double value, double min, double max) {
+    ParamSpec p;
+    p.name = name;
+    p.default_value = value;
+    p.min = min;
+    p.max = max;
+    return p;
+  };
+  EXPECT_CONTAINS(refusal("mine", {"mine", "Mine", "", {spec("bad name", 1, 0, 2)}}),
+                  "parameter name 'bad name' is not an identifier");
+  EXPECT_CONTAINS(refusal("mine", {"mine", "Mine", "", {spec("a", 1, 0, 2), spec("a", 1, 0, 2)}}),
+                  "parameter 'a' is declared twice");
+  EXPECT_CONTAINS(refusal("mine", {"mine", "Mine", "", {spec("r", 5, 0, 1)}}), "tool 'mine': the default of");
+  ToolRegistry registry;
+  EXPECT_THROW(registry.add("none", [] { return std::unique_ptr<kiji::Tool>(); }), kiji::InputError);
+}
+
 TEST_F(PluginLoaderTest, AFolderOfBrokenPluginsLoadsTheGoodOneAndReportsTheRest) {
   add_plugin("kiji_a_good", kGoodLibrary);
   add_plugin("kiji_b_no_entry", kRaw / "kiji_test_no_entry.so");
@@ -401,10 +635,19 @@ TEST_F(PluginLoaderTest, AFolderOfBrokenPluginsLoadsTheGoodOneAndReportsTheRest)
   write_text(dir_ / "kiji_f_text.json", "not json");
   fs::copy_file(kRaw / "kiji_test_no_entry.so", dir_ / "kiji_g_lonely.so");
   write_text(dir_ / "notes.txt", "ignored: neither .json nor .so");
+  add_plugin("kiji_h_null", kRaw / "kiji_test_create_null.so", broken_id);
+  add_plugin("kiji_i_int", kRaw / "kiji_test_create_throws_int.so", broken_id);
+  add_plugin("kiji_j_own", kRaw / "kiji_test_create_throws_own.so", broken_id);
+  add_plugin("kiji_k_info", kRaw / "kiji_test_info_throws.so", broken_id);
+  std::size_t expected = 11;
+#ifdef KIJI_TEST_AVX
+  add_plugin("kiji_l_avx", kRaw / "kiji_test_avx.so", [](json& j) { j["id"] = "probe_avx"; });
+  ++expected;
+#endif
 
   ToolRegistry registry;
   const auto reports = registry.load_plugins({dir_.string()});
-  ASSERT_EQ(reports.size(), 7u);
+  ASSERT_EQ(reports.size(), expected);
   int loaded = 0;
   for (const auto& r : reports) {
     loaded += r.loaded;

@@ -85,8 +85,27 @@ TEST_F(PluginMetaTest, RefusesAToolWhoseIdIsNotTheOneItIsBuiltAs) {
 
 TEST_F(PluginMetaTest, RefusesABinaryOfAnotherAbi) {
   const std::string out = refusal(kRaw / "kiji_test_other_abi.so");
-  EXPECT_CONTAINS(out, "built for ABI kiji0.1;gcc1;libstdc++0;cgal0.0;eigen0.0;float");
+  EXPECT_CONTAINS(out, "built for ABI kiji=0.1;compiler=gcc1;stdlib=libstdc++0;cgal=0.0;eigen=0.0.0;scalar=float");
   EXPECT_CONTAINS(out, kiji::abi_tag());
+  EXPECT_CONTAINS(out, "compiler differs (plugin gcc1");
+}
+
+TEST_F(PluginMetaTest, RefusesAToolBuiltWithAvx) {
+#if !defined(KIJI_TEST_AVX) || EIGEN_MAX_STATIC_ALIGN_BYTES >= 32
+  GTEST_SKIP() << "-mavx is an x86-64 flag, and changes nothing where Kiji itself is built with it";
+#else
+  // kiji_add_tool() runs this after the link: the build of such a tool fails, saying why.
+  const std::string out = refusal(kRaw / "kiji_test_avx.so");
+  EXPECT_CONTAINS(out, "eigen_align differs (plugin 32/32, this Kiji 16/16)");
+  EXPECT_CONTAINS(out, "-mavx");
+#endif
+}
+
+TEST_F(PluginMetaTest, RefusesAToolThatCannotBeMadeOrDescribed) {
+  EXPECT_CONTAINS(refusal(kRaw / "kiji_test_create_null.so"), "its create() returned no tool (a null pointer)");
+  EXPECT_CONTAINS(refusal(kRaw / "kiji_test_create_throws_int.so"), "threw something that is not a std::exception");
+  EXPECT_CONTAINS(refusal(kRaw / "kiji_test_create_throws_own.so"), "the plugin's own exception, thrown by create()");
+  EXPECT_CONTAINS(refusal(kRaw / "kiji_test_info_throws.so"), "threw something that is not a std::exception");
 }
 
 TEST_F(PluginMetaTest, RefusesABinaryOfAnotherInterface) {

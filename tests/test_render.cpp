@@ -2,8 +2,12 @@
 #include "kiji/error.h"
 #include "kiji/pattern.h"
 #include "kiji/render.h"
+#include "test_errors.h"
+#include "test_png.h"
 
 #include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
 
 #include <chrono>
 #include <cmath>
@@ -262,6 +266,28 @@ TEST(Render, BodyAndDenseClothAt1024x768) {
   EXPECT_GT(grey, 10000);
 }
 
+// What a picture shows: a point on the cloth facing the camera is seen; behind a body or another
+// cloth, outside the picture, or behind the camera it is not.
+TEST(Render, VisiblePointsAreThoseThePictureShows) {
+  const Garment back = square(0.0, Vec3(0.8, 0.1, 0.1));
+  const Body box = box_body(0.2, 0.5);  // in front of the cloth's middle, x and y within 0.2
+  const std::vector<Vec3> points = {
+      Vec3(0.4, 0.4, 0.0),     // on the cloth, beside the box: seen
+      Vec3(0.0, 0.0, 0.0),     // on the cloth, behind the box: hidden
+      Vec3(0.0, 0.0, 0.6),     // on the box's front face: seen
+      Vec3(0.4, 0.4, -0.02),   // 2 cm behind the cloth: hidden by it
+      Vec3(0.4, 0.4, 0.002),   // 2 mm in front of the cloth (a brush on its surface): seen
+      Vec3(3.0, 0.0, 0.0),     // outside the picture
+      Vec3(0.0, 0.0, 4.0)};    // behind the camera
+  const auto seen = visible_points({&back}, &box, front_camera(), kSize, kSize, points);
+  ASSERT_EQ(seen.size(), points.size());
+  EXPECT_EQ(seen, (std::vector<bool>{true, false, true, false, true, false, false}));
+  // Without the body, the cloth's middle shows; a looser tolerance lets the point behind it through.
+  EXPECT_TRUE(visible_points({&back}, nullptr, front_camera(), kSize, kSize, {Vec3(0, 0, 0)})[0]);
+  EXPECT_TRUE(visible_points({&back}, nullptr, front_camera(), kSize, kSize, {points[3]}, 0.05)[0]);
+  EXPECT_THROW(visible_points({&back}, nullptr, front_camera(), kSize, kSize, points, -1.0), InputError);
+}
+
 TEST(RenderErrors, BadSizeAndCamera) {
   EXPECT_THROW(render({}, nullptr, front_camera(), 0, 10), InputError);
   EXPECT_THROW(render({}, nullptr, front_camera(), 10, -1), InputError);
@@ -322,6 +348,63 @@ TEST(PngErrors, TruncatedPng) {
   std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   std::ofstream(tmp_path("truncated.png"), std::ios::binary) << bytes.substr(0, bytes.size() / 2);
   EXPECT_THROW(read_png(tmp_path("truncated.png")), InputError);
+}
+
+namespace {
+// The largest resident size of this process so far, in bytes.
+std::size_t peak_resident_bytes() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<std::size_t>(u.ru_maxrss) * 1024;
+}
+}  // namespace
+
+TEST(PngErrors, AHugeDeclaredSizeIsRefusedBeforeItsPixelsAreAllocated) {
+  // A 16 x 16 PNG whose header is rewritten to declare other sizes: a few hundred bytes that would
+  // otherwise ask for up to 4 GiB.
+  Image img;
+  img.width = img.height = 16;
+  img.rgba.assign(16 * 16 * 4, 90);
+  write_png(img, tmp_path("small.png"));
+  std::ifstream in(tmp_path("small.png"), std::ios::binary);
+  const std::string original((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::size_t peak_before = peak_resident_bytes();
+  struct Case {
+    std::uint32_t width, height;
+    std::string expect;
+  };
+  const Case cases[] = {
+      {32767, 32767, "image size 32767x32767 is larger than Kiji reads (at most 16384 pixels a side and "
+                     "67108864 pixels in all, 256 MiB as RGBA)"},
+      {16384, 16384, "image size 16384x16384 is larger than Kiji reads"},
+      {1, 100000, "image size 1x100000 is larger than Kiji reads"},
+      {8192, 8192, "declares a 8192x8192 image, more than a PNG file of its size can hold"},
+  };
+  for (const Case& c : cases) {
+    std::string bytes = original;
+    ASSERT_TRUE(test::declare_png_size(bytes, 0, c.width, c.height));
+    const std::string path = tmp_path("declares_" + std::to_string(c.width) + "x" + std::to_string(c.height) + ".png");
+    std::ofstream(path, std::ios::binary) << bytes;
+    const std::string msg = test::input_error([&] { read_png(path); });
+    EXPECT_NE(msg.find(c.expect), std::string::npos) << msg;
+    EXPECT_NE(msg.find(path), std::string::npos) << msg;
+  }
+  EXPECT_LT(peak_resident_bytes(), peak_before + (64u << 20)) << "nothing near the declared sizes was allocated";
+  // The same file with its own size still reads.
+  EXPECT_EQ(read_png(tmp_path("small.png")).rgba, img.rgba);
+}
+
+TEST(PngErrors, AFileThatIsNotARegularFileIsRefusedWithoutBlocking) {
+  const std::string fifo = tmp_path("fifo.png");
+  std::filesystem::remove(fifo);
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  EXPECT_NE(test::input_error([&] { read_png(fifo); }).find("it is not a regular file"), std::string::npos);
+  Image img;
+  img.width = img.height = 2;
+  img.rgba.assign(16, 0);
+  EXPECT_NE(test::input_error([&] { write_png(img, fifo); }).find("it exists and is not a regular file"),
+            std::string::npos);
+  std::filesystem::remove(fifo);
 }
 
 TEST(PngErrors, MissingFileAndUnwritablePath) {

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <random>
 
 using namespace kiji;
@@ -625,6 +626,118 @@ TEST(Xpbd, InvalidInputsThrowAndChangeNothing) {
   // The solver still works afterwards.
   EXPECT_NO_THROW(solver.step(g, 1.0 / 60));
   EXPECT_LT(g.position(Vertex(12)).y(), before.position(Vertex(12)).y());
+}
+
+namespace {
+bool all_finite_state(const Garment& g) {
+  for (Vertex v : g.mesh().vertices())
+    if (!all_finite(g.position(v)) || !all_finite(g.velocity(v))) return false;
+  return true;
+}
+bool same_state(const Garment& a, const Garment& b) {
+  for (Vertex v : a.mesh().vertices())
+    if (a.position(v) != b.position(v) || a.velocity(v) != b.velocity(v)) return false;
+  return true;
+}
+// Steps g for `steps` steps, each of which must either leave a finite state or throw SimulationError
+// with the garment exactly as before it; returns how many threw.
+int steps_never_non_finite(Solver& solver, Garment& g, int steps, const std::function<void(int)>& before = {}) {
+  int refused = 0;
+  for (int i = 0; i < steps; ++i) {
+    if (before) before(i);
+    const Garment was = g;
+    try {
+      solver.step(g, 1.0 / 60);
+    } catch (const SimulationError& e) {
+      ++refused;
+      EXPECT_NE(std::string(e.what()).find("undone"), std::string::npos) << e.what();
+      EXPECT_TRUE(same_state(g, was)) << "step " << i << ": a refused step changed the garment";
+    }
+    EXPECT_TRUE(all_finite_state(g)) << "step " << i;
+  }
+  return refused;
+}
+}  // namespace
+
+TEST(Xpbd, AStepThatWouldGoNonFiniteIsUndoneAndSaysSo) {
+  // A force no time step can integrate (1e300 N on a vertex of 2e-4 kg): the step overflows. It is
+  // refused with an error of its own kind (not bad input: the input was finite), the garment is
+  // as it was, and the next step, without the force, goes on from there.
+  const Body sphere = test::make_sphere(0.3, Vec3(0, 1, 0), 3);
+  Garment g = make_rectangle(0.5, 0.5, 21, 21);
+  lay_flat(g, Vec3(-0.25, 1.35, 0.25));
+  Solver solver;
+  solver.set_body(&sphere);
+  run(solver, g, 0.2);
+  const Garment before = g;
+  solver.add_external_force(Vertex(220), Vec3(1e300, -1e300, 0));
+  try {
+    solver.step(g, 1.0 / 60);
+    FAIL() << "a step under 1e300 N was taken";
+  } catch (const InputError& e) {
+    FAIL() << "reported as bad input: " << e.what();
+  } catch (const SimulationError& e) {
+    EXPECT_NE(std::string(e.what()).find("vertex"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(same_state(g, before));
+  solver.step(g, 1.0 / 60);
+  EXPECT_TRUE(all_finite_state(g));
+  EXPECT_NE(g.position(Vertex(0)), before.position(Vertex(0))) << "the cloth moves on";
+}
+
+TEST(Xpbd, NoPullOrBodyMakesTheClothNonFinite) {
+  const Body sphere = test::make_sphere(0.3, Vec3(0, 1, 0), 3);
+  auto cloth = [](double height) {
+    Garment g = make_rectangle(0.5, 0.5, 13, 13);
+    lay_flat(g, Vec3(-0.25, height, 0.25));
+    return g;
+  };
+  {  // A pinch dragged 100 m away, plain and firm, as stiff as a hand may be.
+    for (bool firm : {false, true}) {
+      Garment g = cloth(1.35);
+      Solver solver;
+      solver.set_body(&sphere);
+      const int hand = solver.add_attachment(Vertex(84), Vec3(0, 1.4, 0), 1e6, firm);
+      EXPECT_EQ(steps_never_non_finite(solver, g, 30, [&](int i) { solver.move_attachment(hand, Vec3(100.0 * i / 10, 1.4, 0)); }), 0);
+    }
+  }
+  {  // Forces up to 1e12 N, every step: the cloth goes far, and stays finite.
+    Garment g = cloth(1.35);
+    Solver solver;
+    solver.set_body(&sphere);
+    EXPECT_EQ(steps_never_non_finite(solver, g, 30, [&](int) { solver.add_external_force(Vertex(84), Vec3(1e12, 0, 0)); }), 0);
+  }
+  {  // Placed through the body: the part inside it passes out of it (it cannot be pushed out from within).
+    Garment g = cloth(1.0);
+    Solver solver;
+    solver.set_body(&sphere);
+    EXPECT_EQ(steps_never_non_finite(solver, g, 60), 0);
+  }
+  {  // The same body inside out (every triangle wound the other way).
+    std::vector<std::array<int, 3>> tris = sphere.triangles();
+    for (auto& t : tris) std::swap(t[1], t[2]);
+    const Body inside_out = Body::from_triangles(sphere.vertices(), tris, "inside out");
+    Garment g = cloth(1.35);
+    Solver solver;
+    solver.set_body(&inside_out);
+    EXPECT_EQ(steps_never_non_finite(solver, g, 60), 0);
+  }
+  {  // Degenerate bodies: triangles with two corners at one point, or all three on a line; and a
+     // sphere squashed flat (its equator's triangles of no area, the rest facing up and down).
+    const Body slivers = Body::from_triangles({{-1, 1, -1}, {1, 1, -1}, {2, 1, -1}, {-1, 1, -1}, {0, 1, 1}},
+                                              {{{0, 1, 2}}, {{0, 3, 1}}, {{0, 0, 0}}, {{0, 4, 1}}}, "slivers");
+    std::vector<Vec3> flat = sphere.vertices();
+    for (Vec3& p : flat) p.y() = 1.0;
+    const Body squashed = Body::from_triangles(flat, sphere.triangles(), "squashed");
+    for (const Body* body : {&slivers, &squashed}) {
+      Garment g = cloth(1.1);
+      Solver solver;
+      solver.set_body(body);
+      EXPECT_EQ(steps_never_non_finite(solver, g, 60), 0) << body->name();
+      const ClothMeasures m = solver.measure(g);
+      EXPECT_GT(m.contacts, 40u) << body->name() << ": the cloth lies on it";
+    }
+  }
 }
 
 TEST(Xpbd, PrepareBuildsAheadWithoutChangingTheMotion) {

@@ -13,6 +13,8 @@
 
 #include <cmath>
 #include <cstring>
+#include <set>
+#include <algorithm>
 
 using namespace kiji;
 
@@ -214,6 +216,8 @@ TEST(Pinch, WholeModeCarriesTheGarment) {
 
 namespace {
 // Hangs a cloth of the material by its top edge and pulls its bottom middle down 4 cm.
+const Vec3 kPullStart(0.2, 0.0, 0);
+
 Garment pulled(const Material& m, const std::string& mode) {
   Session s(plugins());
   Garment g = make_rectangle(0.4, 0.4, 21, 21, m);
@@ -221,9 +225,8 @@ Garment pulled(const Material& m, const std::string& mode) {
     if (g.position(v).y() > 0.399) g.set_pinned(v, true);
   s.add_garment(std::move(g));
   ParamSet p = s.params_for("tear", {{"mode", mode}});
-  const Vec3 start(0.2, 0.0, 0);
   const State before = state_of(s.garment(0));
-  const Stroke stroke = line(start, start + Vec3(0, -0.04, 0.0), 60);
+  const Stroke stroke = line(kPullStart, kPullStart + Vec3(0, -0.04, 0.0), 60);
   s.run("tear", p, stroke);
   const Garment torn = s.garment(0);
   // Undo restores the whole cloth exactly; redo the torn one.
@@ -233,22 +236,110 @@ Garment pulled(const Material& m, const std::string& mode) {
   expect_same(state_of(s.garment(0)), state_of(torn));
   return torn;
 }
+
+// The largest stretch (length over rest length) of the garment's edges.
+double largest_stretch(const Garment& g) {
+  double most = 0;
+  for (Edge e : g.mesh().edges()) most = std::max(most, g.length(e) / g.rest_length(e));
+  return most;
+}
+
+// The faces of `before` that `after` no longer has (vertex indices are stable across tears), by
+// their corners' positions in `before`.
+std::vector<Vec3> centres_of_lost_faces(const State& before, const Garment& after) {
+  std::set<std::array<std::uint32_t, 3>> kept;
+  for (const auto& f : state_of(after).faces) {
+    auto k = f;
+    std::sort(k.begin(), k.end());
+    kept.insert(k);
+  }
+  std::vector<Vec3> lost;
+  for (const auto& f : before.faces) {
+    auto k = f;
+    std::sort(k.begin(), k.end());
+    if (!kept.count(k)) lost.push_back((before.positions[f[0]] + before.positions[f[1]] + before.positions[f[2]]) / 3);
+  }
+  return lost;
+}
 }  // namespace
 
-TEST(Tear, AStrongPullTearsFragileClothAndNotRubber) {
+TEST(Tear, AStrongPullTearsFragileClothWhereItPullsAndNotRubber) {
+  const State rest = state_of(make_rectangle(0.4, 0.4, 21, 21));
   const Garment rubber = pulled(Material::rubber(), "remove");
   EXPECT_TRUE(rubber.is_valid());
   EXPECT_EQ(rubber.mesh().number_of_faces(), 800u) << "rubber stretches and holds";
+  EXPECT_GT(largest_stretch(rubber), Material::tissue().tear_ratio)
+      << "the same pull stretches rubber past what tissue bears";
+  EXPECT_LT(largest_stretch(rubber), Material::rubber().tear_ratio);
+
   const Garment tissue = pulled(Material::tissue(), "remove");
   EXPECT_TRUE(tissue.is_valid());
-  EXPECT_LT(tissue.mesh().number_of_faces(), 800u) << "tissue tears: edges and their faces go";
+  const std::vector<Vec3> lost = centres_of_lost_faces(rest, tissue);
+  ASSERT_FALSE(lost.empty()) << "tissue tears: edges and their faces go";
+  EXPECT_LT(tissue.mesh().number_of_faces(), 800u);
+  // Where the hand pulls, and nowhere else: every lost face is near the grabbed corner of the cloth.
+  for (const Vec3& c : lost) EXPECT_LT((c - kPullStart).norm(), 0.08) << c.transpose();
+  // And the tear leaves no edge past its threshold: every edge stretched past it broke.
+  for (Edge e : tissue.mesh().edges()) EXPECT_LE(tissue.length(e), tissue.tear_threshold(e));
 }
 
-TEST(Tear, SplitModeOpensTheClothAndLosesNoFace) {
+TEST(Tear, SplitModeOpensTheClothWhereItPullsAndLosesNoFace) {
   const Garment tissue = pulled(Material::tissue(), "split");
   EXPECT_TRUE(tissue.is_valid());
   EXPECT_EQ(tissue.mesh().number_of_faces(), 800u);
-  EXPECT_GT(tissue.mesh().number_of_vertices(), 441u) << "the tear opened the cloth";
+  ASSERT_GT(tissue.mesh().number_of_vertices(), 441u) << "the tear opened the cloth";
+  // The vertices the opening added are where the hand pulls, and every edge still past its
+  // threshold is on the opening's border (opened, no longer holding the cloth together).
+  for (Vertex v : tissue.mesh().vertices())
+    if (v.idx() >= 441) EXPECT_LT((tissue.position(v) - kPullStart).norm(), 0.1) << v.idx();
+  for (Edge e : tissue.mesh().edges())
+    if (tissue.length(e) > tissue.tear_threshold(e)) EXPECT_TRUE(tissue.mesh().is_border(e));
+}
+
+TEST(Tear, EdgesTearExactlyWhereTheyAreStretchedPastTheirThreshold) {
+  // A still cloth with two vertices pushed diagonally by 0.9 of the spacing: the edges behind each
+  // stretch past tissue's threshold (1.1 of rest). Around the second, every stretched edge is given
+  // a threshold 2 % above its length (a stronger thread): there nothing may tear.
+  auto owner = flat_session(0.4, 0.4, 21, 21, Material::tissue());
+  Session& s = *owner;
+  s.set_simulating(false);
+  Garment& g = s.garment(0);
+  const Vertex weak(21 * 10 + 4), strong(21 * 10 + 16);  // each with eight neighbours
+  for (Vertex v : {weak, strong}) g.set_position(v, g.position(v) + Vec3(0.9 * 0.02, 0.9 * 0.02, 0));
+  using Key = std::pair<std::uint32_t, std::uint32_t>;
+  auto key_of = [&](Edge e) {
+    const std::uint32_t a = g.mesh().source(g.mesh().halfedge(e)).idx(), b = g.mesh().target(g.mesh().halfedge(e)).idx();
+    return Key(std::min(a, b), std::max(a, b));
+  };
+  std::set<Key> over, held;
+  std::set<Face> doomed;
+  for (Edge e : g.mesh().edges()) {
+    if (g.length(e) <= g.tear_threshold(e)) continue;
+    const Key k = key_of(e);
+    if (k.first == strong.idx() || k.second == strong.idx()) {
+      g.set_tear_threshold(e, g.length(e) * 1.02);
+      held.insert(k);
+      continue;
+    }
+    over.insert(k);
+    for (Halfedge h : {g.mesh().halfedge(e), g.mesh().opposite(g.mesh().halfedge(e))})
+      if (!g.mesh().is_border(h)) doomed.insert(g.mesh().face(h));
+  }
+  ASSERT_EQ(over.size(), 5u) << "five of the weak vertex's eight edges are stretched past 1.1";
+  ASSERT_EQ(held.size(), 5u);
+  const State before = state_of(g);
+
+  // The pointer far from both: where the pointer is does not choose what tears.
+  s.run("tear", s.params_for("tear"), line(Vec3(0.05, 0.05, 0), Vec3(0.05, 0.05, 0), 1));
+  const Garment& torn = s.garment(0);
+  EXPECT_TRUE(torn.is_valid());
+  for (const auto& [a, b] : over) EXPECT_FALSE(CGAL::halfedge(Vertex(a), Vertex(b), torn.mesh()).second) << a << "-" << b;
+  for (const auto& [a, b] : held) EXPECT_TRUE(CGAL::halfedge(Vertex(a), Vertex(b), torn.mesh()).second) << a << "-" << b;
+  // Exactly the faces of the broken edges went, and every face around the strong vertex stayed.
+  EXPECT_EQ(torn.mesh().number_of_faces(), before.faces.size() - doomed.size());
+  EXPECT_EQ(CGAL::degree(strong, torn.mesh()), 8u);
+  for (const Vec3& c : centres_of_lost_faces(before, torn))
+    EXPECT_LT((c - before.positions[weak.idx()]).norm(), 0.04) << "a face lost away from the weak vertex, at " << c.transpose();
 }
 
 TEST(Cut, AStrokeAcrossARectangleMakesTwoPiecesKeepingEveryFace) {

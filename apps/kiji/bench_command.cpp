@@ -26,6 +26,7 @@
 #include <thread>
 #include <malloc.h>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <utility>
 #include <vector>
 
@@ -38,33 +39,9 @@ static_assert(sizeof(btScalar) == 8, "Kiji uses Bullet in double precision");
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
-std::string num(double x) {
-  if (!std::isfinite(x)) return "null";
-  char b[64];
-  std::snprintf(b, sizeof b, "%.6g", x);
-  return b;
-}
-
-// A JSON object built field by field.
-class Json {
- public:
-  Json& field(const std::string& k, const std::string& raw) {
-    text_ += (text_.empty() ? "" : ", ") + ("\"" + k + "\": ") + raw;
-    return *this;
-  }
-  Json& number(const std::string& k, double v) { return field(k, num(v)); }
-  Json& string(const std::string& k, const std::string& v) { return field(k, "\"" + v + "\""); }
-  std::string str() const { return "{" + text_ + "}"; }
-
- private:
-  std::string text_;
-};
-
-std::string array(const std::vector<std::string>& items) {
-  std::string s = "[";
-  for (std::size_t i = 0; i < items.size(); ++i) s += (i ? ", " : "") + items[i];
-  return s + "]";
-}
+// The report's objects keep their fields in the order they are written (a person reads them too).
+// A figure that is not finite (no steps timed) is written as null.
+using Json = nlohmann::ordered_json;
 
 // Bytes in use on the heap (glibc's count): what a garment and its solver take.
 double heap_bytes() { return static_cast<double>(mallinfo2().uordblks); }
@@ -81,7 +58,35 @@ struct ToolRate {
   std::string tool;  // the tool, or "pinch_local": the pinch with the paper's local region
   double steps_per_second = 0, frames_per_second = 0;
   int moving_vertices = 0;  // pinch_local: the vertices within the radius at the stroke's end
+  StepReport::Times ms;     // the solver's own account of a step, averaged over the stroke's steps
 };
+
+// A step's time by phase, as the solver reports it (StepReport::ms), with the share of the step
+// outside loops shared between threads: what more cores cannot shorten.
+Json phases_json(const StepReport::Times& t) {
+  return {{"total_ms", t.total},
+          {"solve_ms", t.solve},
+          {"strain_limit_ms", t.strain_limit},
+          {"self_search_ms", t.self_search},
+          {"self_resolve_ms", t.self_resolve},
+          {"body_ms", t.body},
+          {"serial_share", t.total > 0 ? (t.total - t.shared) / t.total : 0.0}};
+}
+
+std::string phases_text(const StepReport::Times& t) {
+  char b[256];
+  const double k = t.total > 0 ? 100 / t.total : 0;
+  std::snprintf(b, sizeof b, "%.1f ms: solve %.0f%%, strain limit %.0f%%, self %.0f%%+%.0f%%, body %.0f%%; serial %.0f%%",
+                t.total, k * t.solve, k * t.strain_limit, k * t.self_search, k * t.self_resolve, k * t.body,
+                k * (t.total - t.shared));
+  return b;
+}
+
+void add_times(StepReport::Times& sum, const StepReport::Times& t, double scale) {
+  sum.total += scale * t.total, sum.solve += scale * t.solve, sum.strain_limit += scale * t.strain_limit;
+  sum.self_search += scale * t.self_search, sum.self_resolve += scale * t.self_resolve, sum.body += scale * t.body;
+  sum.shared += scale * t.shared;
+}
 
 // The pinch's local region in the tables (the paper simulates only the vertices within a distance
 // of the pen; it gives none): about a hand's span.
@@ -89,10 +94,13 @@ constexpr double kLocalRadius = 0.2;
 
 // The paper's own figures (its table 1, without and with edge and vertex drawing), for V = 289,
 // 400, 521.
-const char* kPaperTable =
-    "{\"sizes\": [289, 400, 521], \"without_edges\": {\"pinch\": [32, 18, 10], \"tear\": [32, 18, 10], "
-    "\"cut\": [65, 65, 65], \"sew\": [64, 46, 32], \"paint\": [25, 22, 22]}, \"with_edges\": {\"pinch\": [22, 13, 7], "
-    "\"tear\": [22, 13, 7], \"cut\": [53, 33, 33], \"sew\": [33, 27, 18], \"paint\": [22, 18, 17]}}";
+Json paper_table() {
+  return {{"sizes", {289, 400, 521}},
+          {"without_edges", {{"pinch", {32, 18, 10}}, {"tear", {32, 18, 10}}, {"cut", {65, 65, 65}},
+                             {"sew", {64, 46, 32}}, {"paint", {25, 22, 22}}}},
+          {"with_edges", {{"pinch", {22, 13, 7}}, {"tear", {22, 13, 7}}, {"cut", {53, 33, 33}},
+                          {"sew", {33, 27, 18}}, {"paint", {22, 18, 17}}}}};
+}
 
 // Whether every vertex of the session's garment sleeps (see SolverParams::sleep_after).
 bool all_asleep(Session& s) {
@@ -157,6 +165,7 @@ std::vector<ToolRate> tool_rates(const Body& body, int vertices, int frames, std
     ParamSet p = local ? s.params_for(tool, {{"local_radius", kLocalRadius}}) : s.params_for(tool);
     const Camera cam = Camera::framing(body.bounds());
     double step_s = 0, frame_s = 0;
+    StepReport::Times times;
     Vec3 last = a;
     for (int f = 0; f <= frames; ++f) {
       ToolEvent e;
@@ -173,6 +182,7 @@ std::vector<ToolRate> tool_rates(const Body& body, int vertices, int frames, std
       const auto t0 = Clock::now();
       s.apply(tool, e, &p);  // advances the simulation one step, then the tool acts
       step_s += seconds_since(t0);
+      add_times(times, s.solver(0).last_step().ms, 1.0 / (frames + 1));
       const auto t1 = Clock::now();
       const Garment& gg = s.garment(0);
       render({&gg}, &body, cam, 320, 240);
@@ -182,7 +192,7 @@ std::vector<ToolRate> tool_rates(const Body& body, int vertices, int frames, std
     if (local)
       for (Vertex v : s.garment(0).mesh().vertices())
         moving += (s.garment(0).position(v) - last).norm() <= kLocalRadius;
-    out.push_back({name, (frames + 1) / step_s, (frames + 1) / (step_s + frame_s), moving});
+    out.push_back({name, (frames + 1) / step_s, (frames + 1) / (step_s + frame_s), moving, times});
   }
   return out;
 }
@@ -390,9 +400,9 @@ Compared compare(int n, int steps, const std::vector<std::pair<int, bool>>& kiji
   return out;
 }
 
-std::string cloth_json(const ClothResult& r) {
-  return Json().number("ms_per_step", r.ms_per_step).number("max_strain", r.max_strain)
-      .number("mean_strain", r.mean_strain).number("sag_m", r.sag).number("setup_ms", r.setup_ms).str();
+Json cloth_json(const ClothResult& r) {
+  return {{"ms_per_step", r.ms_per_step}, {"max_strain", r.max_strain}, {"mean_strain", r.mean_strain},
+          {"sag_m", r.sag}, {"setup_ms", r.setup_ms}};
 }
 
 // ---- 3. haptics: the force callback and the loop while a 20k garment simulates ----
@@ -525,27 +535,30 @@ int bench_command(const std::vector<std::string>& argv) {
       "   (on the garment at rest on the body; pinch_local: the pinch simulating only the cloth within %.2f m of the\n"
       "   pen, the paper's local region; pinch_landing: the pinch while the garment is still landing on the body)\n",
       body.name().c_str(), kLocalRadius);
-  std::vector<std::string> table;
+  Json table = Json::array();
   for (int v : tool_sizes) {
     const auto rates = tool_rates(body, v, frames, tools, rows);
-    Json row;
-    row.number("vertices", double(v));
+    Json row = {{"vertices", v}};
     say("   V = %6d:", v);
     for (const auto& r : rates) {
-      Json rate;
-      rate.number("steps_per_second", r.steps_per_second).number("frames_per_second", r.frames_per_second);
-      if (r.tool == "pinch_local") rate.number("local_radius_m", kLocalRadius).number("moving_vertices", r.moving_vertices);
-      row.field(r.tool, rate.str());
+      Json rate = {{"steps_per_second", r.steps_per_second}, {"frames_per_second", r.frames_per_second}};
+      if (r.tool == "pinch_local") {
+        rate["local_radius_m"] = kLocalRadius;
+        rate["moving_vertices"] = r.moving_vertices;
+      }
+      rate["step_phases"] = phases_json(r.ms);
+      row[r.tool] = rate;
       say("  %s %.1f/%.1f", r.tool.c_str(), r.steps_per_second, r.frames_per_second);
     }
     say("\n");
-    table.push_back(row.str());
+    for (const auto& r : rates) say("      %-13s a step %s\n", r.tool.c_str(), phases_text(r.ms).c_str());
+    table.push_back(row);
   }
 
   // 2. Beside btSoftBody.
   say("2. the same cloth (1 m, two corners pinned, 2 s at 60 Hz; the solvers stepped in turns, 20 steps each): ms a step\n"
       "   (each solver's set-up before the clock), max/mean strain, sag\n");
-  std::vector<std::string> versus;
+  Json versus = Json::array();
   const int steps = quick ? 10 : 120;
   for (int v : bullet_sizes) {
     const int n = std::max(2, static_cast<int>(std::lround(std::sqrt(double(v)))));
@@ -582,12 +595,15 @@ int bench_command(const std::vector<std::string>& argv) {
           matched, matched_limit ? "on" : "off", xm.ms_per_step, xm.max_strain, xm.mean_strain, xm.sag, matched_ratio);
     else
       say("              at equal or better strain: none of 1-10 substeps\n");
-    versus.push_back(Json().number("vertices", double(n * n)).field("xpbd", cloth_json(x)).field("mass_spring", cloth_json(m))
-                         .field("bullet", cloth_json(b)).number("speedup_xpbd_over_bullet", ratio)
-                         .number("matched_substeps", matched)
-                         .field("matched_strain_limit", matched ? (matched_limit ? "true" : "false") : "null")
-                         .field("xpbd_matched", matched ? cloth_json(xm) : std::string("null"))
-                         .number("speedup_at_equal_strain", matched_ratio).str());
+    versus.push_back({{"vertices", n * n},
+                      {"xpbd", cloth_json(x)},
+                      {"mass_spring", cloth_json(m)},
+                      {"bullet", cloth_json(b)},
+                      {"speedup_xpbd_over_bullet", ratio},
+                      {"matched_substeps", matched},
+                      {"matched_strain_limit", matched ? Json(matched_limit) : Json()},
+                      {"xpbd_matched", matched ? cloth_json(xm) : Json()},
+                      {"speedup_at_equal_strain", matched_ratio}});
   }
 
   // 3. Haptics.
@@ -650,7 +666,7 @@ int bench_command(const std::vector<std::string>& argv) {
     const std::size_t n = t.size();
     return 0.5 * (t[(n - 1) / 2] + t[n / 2]);
   };
-  std::vector<std::string> scaling;
+  Json scaling = Json::array();
   std::vector<double> vertices, falling, landing;  // medians, ms
   for (const Scaled& c : sized) {
     const std::vector<double>& t = c.step_ms;
@@ -667,7 +683,9 @@ int bench_command(const std::vector<std::string>& argv) {
     // crosses in a substep, the more of them it crushes or pulls out before the sweeps can stop it
     // (the share beyond the strain limit follows this figure whatever the vertex count).
     double pairs = 0, gathers = 0, limited = 0, speed = 0;
+    StepReport::Times landing_times;
     for (std::size_t k = kTurns / 2; k < c.work.size(); ++k) {
+      add_times(landing_times, c.work[k].ms, 1.0 / double(c.work.size() - kTurns / 2));
       pairs += double(c.work[k].self_pairs), gathers += c.work[k].self_gathers;
       limited += double(c.work[k].strain_limited);
       speed += c.speed[k];
@@ -683,18 +701,22 @@ int bench_command(const std::vector<std::string>& argv) {
     say("              landing's work a step: %.2f self-collision pairs a vertex in %.1f searches; %.1f %% of the "
         "edges beyond the strain limit a substep, the cloth moving %.2f edges a substep\n", pairs, gathers,
         100 * limited, edges_a_substep);
-    scaling.push_back(Json().number("vertices", nv).number("ms_per_step", ms).number("us_per_vertex", 1000 * ms / nv)
-                          .number("falling_median_us_per_vertex", 1000 * fall / nv)
-                          .number("landing_median_us_per_vertex", 1000 * land / nv)
-                          .number("landing_self_pairs_per_vertex", pairs)
-                          .number("landing_self_gathers_per_step", gathers)
-                          .number("landing_strain_limited_share", limited)
-                          .number("landing_edges_moved_per_substep", edges_a_substep)
-                          .number("bytes_per_vertex", c.bytes / nv).str());
+    say("              landing's mean step %s\n", phases_text(landing_times).c_str());
+    scaling.push_back({{"vertices", nv},
+                       {"ms_per_step", ms},
+                       {"us_per_vertex", 1000 * ms / nv},
+                       {"falling_median_us_per_vertex", 1000 * fall / nv},
+                       {"landing_median_us_per_vertex", 1000 * land / nv},
+                       {"landing_self_pairs_per_vertex", pairs},
+                       {"landing_self_gathers_per_step", gathers},
+                       {"landing_strain_limited_share", limited},
+                       {"landing_edges_moved_per_substep", edges_a_substep},
+                       {"bytes_per_vertex", c.bytes / nv},
+                       {"landing_step_phases", phases_json(landing_times)}});
   }
   // Time ~ V^k: k over all the sizes (least squares on the logarithms) and between the two
   // largest. 1 is linear; under 1, the fixed costs of a step still count.
-  std::string growth;
+  Json growth;
   if (sized.size() >= 2) {
     auto exponents = [&](const std::vector<double>& ms) {
       std::vector<std::size_t> by_size(ms.size());
@@ -714,25 +736,30 @@ int bench_command(const std::vector<std::string>& argv) {
     const auto [land_all, land_top] = exponents(landing);
     say("   median step ~ V^k: falling k = %.2f over these sizes, %.2f between the two largest; landing %.2f and %.2f\n",
         fall_all, fall_top, land_all, land_top);
-    growth = Json().number("falling_exponent_all_sizes", fall_all).number("falling_exponent_largest_two", fall_top)
-                 .number("landing_exponent_all_sizes", land_all).number("landing_exponent_largest_two", land_top).str();
+    growth = {{"falling_exponent_all_sizes", fall_all},
+              {"falling_exponent_largest_two", fall_top},
+              {"landing_exponent_all_sizes", land_all},
+              {"landing_exponent_largest_two", land_top}};
   }
 
   if (json) {
-    Json out;
-    out.number("threads", double(std::thread::hardware_concurrency()));
-    out.field("paper", kPaperTable);
-    out.field("tool_rates", array(table));
-    out.field("versus_bullet", array(versus));
-    out.field("haptics", Json().number("vertices", haptic_vertices).number("loop_hz", h.rate_hz)
-                             .number("jitter_us", h.period_jitter_us).number("force_median_us", h.force_median_us)
-                             .number("force_p99_us", h.force_p99_us).number("ticks", double(h.ticks))
-                             .number("simulation_ms_per_step", sim_ms)
-                             .field("realtime", h.realtime ? "true" : "false").str());
-    out.number("scaling_substeps", scaling_params.substeps);
-    out.field("scaling", array(scaling));
-    if (!growth.empty()) out.field("scaling_growth", growth);
-    std::printf("%s\n", out.str().c_str());
+    Json out = {{"threads", std::thread::hardware_concurrency()},
+                {"paper", paper_table()},
+                {"tool_rates", table},
+                {"versus_bullet", versus},
+                {"haptics",
+                 {{"vertices", haptic_vertices},
+                  {"loop_hz", h.rate_hz},
+                  {"jitter_us", h.period_jitter_us},
+                  {"force_median_us", h.force_median_us},
+                  {"force_p99_us", h.force_p99_us},
+                  {"ticks", h.ticks},
+                  {"simulation_ms_per_step", sim_ms},
+                  {"realtime", h.realtime}}},
+                {"scaling_substeps", scaling_params.substeps},
+                {"scaling", scaling}};
+    if (!growth.is_null()) out["scaling_growth"] = growth;
+    std::printf("%s\n", out.dump().c_str());
   }
   return 0;
 }

@@ -8,10 +8,11 @@
 #include "kiji/pattern.h"
 #include "kiji/render.h"
 
+#include <nlohmann/json.hpp>
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <sstream>
 #include <string>
 
 namespace kiji::cli {
@@ -27,8 +28,12 @@ const char* kDrapeHelp =
     "options:\n"
     "  --body FILE              body mesh, any format assimp reads (default: human.zae)\n"
     "  --up x|y|z|-x|-y|-z      the body file's up axis, if its metadata is missing or wrong\n"
+    "  --front x|y|z|-x|-y|-z   the body file's axis the body faces (default: what the file says,\n"
+    "                           else the way its feet point); the body is turned to face the camera\n"
     "  --scale S                metres per unit of the body file, if its metadata is missing or wrong\n"
     "  --height METRES          scale the body to this height\n"
+    "  --no-smooth              keep a low-poly body's facets (by default it is rounded: Loop\n"
+    "                           subdivision to 1 cm triangles, so its points do not spike the cloth)\n"
     "  --garment rect:W,H,S     a W x H metre rectangle with vertices S metres apart\n"
     "                           (default rect:1.4,1.0,0.01: 14,241 vertices)\n"
     "  --material NAME          cotton, silk, denim, rubber or tissue (default cotton)\n"
@@ -39,34 +44,6 @@ const char* kDrapeHelp =
     "  --picture FILE           a PNG of the result (default: the --out path with .png)\n"
     "  --no-picture             do not write a picture\n"
     "  --json                   print the summary as one JSON object\n";
-
-std::string json_string(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    switch (c) {
-      case '"': out += "\\\""; break;
-      case '\\': out += "\\\\"; break;
-      case '\n': out += "\\n"; break;
-      case '\t': out += "\\t"; break;
-      default:
-        if (static_cast<unsigned char>(c) < 0x20) {
-          char buf[8];
-          std::snprintf(buf, sizeof buf, "\\u%04x", c);
-          out += buf;
-        } else {
-          out += c;
-        }
-    }
-  }
-  return out + "\"";
-}
-
-std::string json_number(double x) {
-  if (!std::isfinite(x)) return "null";
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.9g", x);
-  return buf;
-}
 
 void make_parent(const std::string& path) {
   const auto parent = std::filesystem::path(path).parent_path();
@@ -80,15 +57,18 @@ void make_parent(const std::string& path) {
 
 int drape_command(const std::vector<std::string>& argv) {
   const Args args(argv,
-                  {"--body", "--up", "--scale", "--height", "--garment", "--material", "--model", "--seconds", "--substeps",
+                  {"--body", "--up", "--front", "--scale", "--height", "--garment", "--material", "--model", "--seconds", "--substeps",
                    "--out", "--picture"},
-                  {"--json", "--no-picture", "--help", "-h"});
+                  {"--json", "--no-picture", "--no-smooth", "--help", "-h"});
   if (args.has("--help") || args.has("-h")) {
     std::fputs(kDrapeHelp, stdout);
     return 0;
   }
   BodyImportOptions import;
   if (args.has("--up")) import.up = parse_axis(args.get("--up", "y"));
+  if (args.has("--front")) import.front = parse_axis(args.get("--front", "z"));
+  import.find_front = true;
+  import.smooth = !args.has("--no-smooth");
   if (args.has("--scale")) import.scale = args.number("--scale", 1.0);
   if (args.has("--height")) import.height = args.number("--height", 1.0);
   const std::string body_path = args.get("--body", Body::default_path());
@@ -125,30 +105,46 @@ int drape_command(const std::vector<std::string>& argv) {
 
   const ClothMeasures& m = result.measures;
   if (args.has("--json")) {
-    std::ostringstream j;
-    j << "{\"body\": " << json_string(body_path) << ", \"body_height\": " << json_number(body.height())
-      << ", \"body_triangles\": " << body.triangles().size()
-      << ", \"model\": " << json_string(solver_model_name(options.solver.model))
-      << ", \"material\": " << json_string(material.name)
-      << ", \"vertices\": " << garment.mesh().number_of_vertices()
-      << ", \"faces\": " << garment.mesh().number_of_faces()
-      << ", \"seconds_simulated\": " << json_number(result.seconds_simulated)
-      << ", \"steps\": " << result.steps << ", \"substeps\": " << options.solver.substeps
-      << ", \"wall_seconds\": " << json_number(result.wall_seconds)
-      << ", \"ms_per_step\": " << json_number(1000.0 * result.wall_seconds / std::max<std::size_t>(1, result.steps))
-      << ", \"max_penetration\": " << json_number(m.max_penetration)
-      << ", \"thickness\": " << json_number(material.thickness)
-      << ", \"max_strain\": " << json_number(m.max_strain)
-      << ", \"mean_strain\": " << json_number(m.mean_strain)
-      << ", \"kinetic_energy\": " << json_number(m.kinetic_energy)
-      << ", \"contacts\": " << m.contacts
-      << ", \"out\": " << json_string(out)
-      << ", \"picture\": " << (picture.empty() ? std::string("null") : json_string(picture)) << "}\n";
-    std::fputs(j.str().c_str(), stdout);
+    // Numbers that are not finite (a blown-up cloth) are written as null, as JSON has no NaN.
+    auto number = [](double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); };
+    const BodyImportReport& br = body.report();
+    const nlohmann::json j = {
+        {"body", body_path},
+        {"body_height", number(body.height())},
+        {"body_triangles", body.triangles().size()},
+        {"body_up", axis_name(br.up)},
+        {"body_front", axis_name(br.front)},
+        {"body_front_source", br.front_source},
+        {"body_smoothing", br.smoothing},
+        {"model", solver_model_name(options.solver.model)},
+        {"material", material.name},
+        {"vertices", garment.mesh().number_of_vertices()},
+        {"faces", garment.mesh().number_of_faces()},
+        // The sum of the steps' dt, rounded to the microsecond: 30 steps of 1/60 s are 0.5 s, not 0.49999999999999994.
+        {"seconds_simulated", number(std::round(result.seconds_simulated * 1e6) / 1e6)},
+        {"steps", result.steps},
+        {"substeps", options.solver.substeps},
+        {"wall_seconds", number(result.wall_seconds)},
+        {"ms_per_step", number(1000.0 * result.wall_seconds / std::max<std::size_t>(1, result.steps))},
+        {"max_penetration", number(m.max_penetration)},
+        {"thickness", number(material.thickness)},
+        {"max_strain", number(m.max_strain)},
+        {"mean_strain", number(m.mean_strain)},
+        {"kinetic_energy", number(m.kinetic_energy)},
+        {"contacts", m.contacts},
+        {"out", out},
+        {"picture", picture.empty() ? nlohmann::json(nullptr) : nlohmann::json(picture)}};
+    std::puts(j.dump(2).c_str());
   } else {
     std::printf("draped %zu vertices / %zu faces of %s on %s (%.2f m tall)\n",
                 garment.mesh().number_of_vertices(), garment.mesh().number_of_faces(), material.name.c_str(),
                 body_path.c_str(), body.height());
+    const BodyImportReport& br = body.report();
+    std::printf("  body           up %s (%s), facing %s (%s)%s\n", axis_name(br.up).c_str(), br.up_source.c_str(),
+                axis_name(br.front).c_str(), br.front_source.c_str(),
+                br.smoothing ? (", rounded by " + std::to_string(br.smoothing) + " subdivisions to " +
+                                std::to_string(body.triangles().size()) + " triangles").c_str()
+                             : "");
     std::printf("  simulated      %.2f s in %zu steps (%s)\n", result.seconds_simulated, result.steps,
                 solver_model_name(options.solver.model).c_str());
     std::printf("  wall time      %.2f s (%.2f ms a step)\n", result.wall_seconds,

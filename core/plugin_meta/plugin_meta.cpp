@@ -14,12 +14,10 @@
 
 #include <dlfcn.h>
 
-#include <cctype>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
-#include <set>
 #include <string>
 
 namespace fs = std::filesystem;
@@ -29,13 +27,6 @@ namespace {
 struct Failure {
   std::string message;
 };
-
-bool is_identifier(const std::string& s) {
-  if (s.empty() || !(std::isalpha(static_cast<unsigned char>(s[0])) || s[0] == '_')) return false;
-  for (char c : s)
-    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_')) return false;
-  return true;
-}
 
 // Loads the library and returns its tool's info, checked as the host would check it.
 kiji::ToolInfo read_info(const std::string& library, const std::string& expected_id) {
@@ -56,38 +47,36 @@ kiji::ToolInfo read_info(const std::string& library, const std::string& expected
   if (std::string(entry->interface_id) != KIJI_TOOL_INTERFACE)
     throw Failure{std::string("built for interface ") + entry->interface_id + ", but this Kiji loads " +
                   KIJI_TOOL_INTERFACE};
-  if (std::string(entry->abi_tag) != kiji::abi_tag())
-    throw Failure{std::string("built for ABI ") + entry->abi_tag + ", but this Kiji's is " + kiji::abi_tag() +
-                  ": build it against the same Kiji headers, compiler, CGAL and Eigen"};
+  if (const std::string diff = kiji::abi_difference(entry->abi_tag, kiji::abi_tag()); !diff.empty())
+    throw Failure{std::string("built for ABI ") + entry->abi_tag + ", but this Kiji's is " + kiji::abi_tag() + ": " +
+                  diff};
 
+  // Made and described as the host will (kiji::ToolRegistry::load_plugin): a null tool or anything
+  // thrown is a refusal, and the tool goes back to the library's own destroy.
   kiji::ToolInfo info;
+  kiji::Tool* tool = nullptr;
   try {
-    kiji::Tool* tool = entry->create();
-    if (!tool) throw Failure{"its factory returned no tool"};
+    tool = entry->create();
+    if (!tool) throw Failure{"its create() returned no tool (a null pointer)"};
     info = tool->info();
-    entry->destroy(tool);
   } catch (const Failure&) {
     throw;
   } catch (const std::exception& e) {
-    throw Failure{std::string("creating its tool failed: ") + e.what()};
+    if (tool) entry->destroy(tool);
+    throw Failure{std::string("making or describing its tool threw: ") + e.what()};
+  } catch (...) {
+    if (tool) entry->destroy(tool);
+    throw Failure{"making or describing its tool threw something that is not a std::exception"};
   }
+  entry->destroy(tool);
 
-  if (!is_identifier(info.id))
-    throw Failure{"tool id '" + info.id + "' is not a verb usable as a Python name (letters, digits and _)"};
   if (!expected_id.empty() && info.id != expected_id)
     throw Failure{"its tool says its id is '" + info.id + "' but it is built as '" + expected_id +
                   "': make info().id and kiji_add_tool()'s id the same"};
-  if (info.label.empty()) throw Failure{"tool '" + info.id + "' has no label"};
-  std::set<std::string> names;
-  for (const auto& p : info.parameters) {
-    if (!is_identifier(p.name))
-      throw Failure{"parameter name '" + p.name + "' is not an identifier: use letters, digits and _"};
-    if (!names.insert(p.name).second) throw Failure{"parameter '" + p.name + "' is declared twice"};
-    try {
-      p.check(p.default_value);
-    } catch (const kiji::Error& e) {
-      throw Failure{std::string("the default of ") + e.what()};
-    }
+  try {
+    kiji::check_tool_info(info);
+  } catch (const kiji::Error& e) {
+    throw Failure{e.what()};
   }
   return info;
 }

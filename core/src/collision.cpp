@@ -35,6 +35,12 @@ struct Collect : btNodeOverlapCallback {
 };
 }  // namespace
 
+bool BodyCollider::degenerate(const Body& body, std::size_t t) {
+  const auto& v = body.vertices();
+  const auto& tri = body.triangles()[t];
+  return (v[tri[1]] - v[tri[0]]).cross(v[tri[2]] - v[tri[0]]).squaredNorm() == 0;
+}
+
 BodyCollider::BodyCollider(const Body& body) : body_(&body), impl_(std::make_unique<Impl>()) {
   const auto& verts = body.vertices();
   const auto& tris = body.triangles();
@@ -54,6 +60,9 @@ BodyCollider::BodyCollider(const Body& body) : body_(&body), impl_(std::make_uni
       impl_->indices.push_back(tris[t][k]);
       b.extend(verts[tris[t][k]]);
     }
+    // A triangle of no area has no side to be on: it is in no box (found by no query), and the
+    // cloth meets the triangles around it instead.
+    if (degenerate(body, t)) b.setEmpty();
     impl_->boxes.push_back(b);
     impl_->normals.push_back(body.triangle_normal(t));
   }

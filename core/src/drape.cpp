@@ -11,16 +11,23 @@ namespace kiji {
 void place_over_body(Garment& garment, const Body& body, double clearance) {
   if (garment.mesh().is_empty()) throw InputError("place_over_body: the garment has no vertices");
   const Box3 pattern = garment.bounds();
-  const Box3 box = body.bounds();
   // Pattern x -> world x, pattern y -> world -z, pattern z -> world y: the cloth lies flat, facing up.
   Eigen::Matrix3d r;
   r << 1, 0, 0,
        0, 0, 1,
        0, -1, 0;
   const Vec3 pattern_centre = pattern.center();
+  // Centred over the head and shoulders (the body's top quarter), which carry the cloth: the whole
+  // body's box is off centre wherever hands, feet or a pose reach further one way, and a cloth
+  // centred on it hangs longer on that side.
+  const Box3 box = body.bounds();
+  Box3 shoulders;
+  const double quarter = box.max().y() - 0.25 * box.sizes().y();
+  for (const Vec3& p : body.vertices())
+    if (p.y() >= quarter) shoulders.extend(p);
+  const Vec3 c = shoulders.center();
   // The highest body point under the cloth's footprint.
   const double half_x = 0.5 * pattern.sizes().x(), half_z = 0.5 * pattern.sizes().y();
-  const Vec3 c = box.center();
   double top = box.min().y();
   for (const Vec3& p : body.vertices())
     if (std::abs(p.x() - c.x()) <= half_x && std::abs(p.z() - c.z()) <= half_z) top = std::max(top, p.y());

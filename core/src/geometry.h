@@ -25,7 +25,7 @@ inline ClosestPoint closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3
   if (d3 >= 0 && d4 <= d3) return {b, 0, 1, 0};
   const double vc = d1 * d4 - d3 * d2;
   if (vc <= 0 && d1 >= 0 && d3 <= 0) {
-    const double v = d1 / (d1 - d3);
+    const double v = d1 - d3 > 0 ? d1 / (d1 - d3) : 0.0;  // d1 - d3 = |ab|^2: 0 when a = b
     return {a + v * ab, 1 - v, v, 0};
   }
   const Vec3 cp = p - c;
@@ -33,12 +33,13 @@ inline ClosestPoint closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3
   if (d6 >= 0 && d5 <= d6) return {c, 0, 0, 1};
   const double vb = d5 * d2 - d1 * d6;
   if (vb <= 0 && d2 >= 0 && d6 <= 0) {
-    const double w = d2 / (d2 - d6);
+    const double w = d2 - d6 > 0 ? d2 / (d2 - d6) : 0.0;  // |ac|^2
     return {a + w * ac, 1 - w, 0, w};
   }
   const double va = d3 * d6 - d5 * d4;
   if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
-    const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    const double bc2 = (d4 - d3) + (d5 - d6);  // |bc|^2
+    const double w = bc2 > 0 ? (d4 - d3) / bc2 : 0.0;
     return {b + w * (c - b), 0, 1 - w, w};
   }
   const double denom = va + vb + vc;

@@ -2,6 +2,7 @@
 #include "kiji/io.h"
 
 #include "kiji/error.h"
+#include "import_checks.h"
 #include "png_codec.h"
 
 #include <assimp/Exporter.hpp>
@@ -159,6 +160,10 @@ void check_writable(const std::string& path, const std::string& what) {
   std::error_code ec;
   if (fs::is_directory(path, ec))
     throw InputError("cannot export '" + path + "': it is a directory; give a file name ending in " + what);
+  // Opening a FIFO to write waits for a reader: only a new or a regular file is written.
+  if (fs::exists(path, ec) && !fs::is_regular_file(path, ec))
+    throw InputError("cannot export '" + path + "': it exists and is not a regular file (a FIFO or a device); "
+                     "give a file name ending in " + what);
   std::ofstream probe(path, std::ios::binary | std::ios::app);
   if (!probe)
     throw InputError("cannot export '" + path + "': the file cannot be written; check that its folder exists "
@@ -176,7 +181,8 @@ Texture read_texture(const aiScene* scene, const aiMaterial* mat, const std::str
   Texture t;
   std::string error;
   if (const aiTexture* emb = scene->GetEmbeddedTexture(ref.C_Str())) {
-    if (emb->mHeight == 0) {
+    if (!emb->pcData) throw InputError(where + " is embedded without data; export the garment again");
+    if (emb->mHeight == 0) {  // compressed: mWidth bytes of an image file
       if (!detail::decode_png(reinterpret_cast<const std::uint8_t*>(emb->pcData), emb->mWidth, true, t.width,
                               t.height, t.rgba, error)) {
         if (error.rfind("not a PNG", 0) == 0) return {};
@@ -184,6 +190,9 @@ Texture read_texture(const aiScene* scene, const aiMaterial* mat, const std::str
       }
       return t;
     }
+    // Raw texels, mWidth x mHeight of them: bounded as a PNG's size is, before allocating.
+    if (const std::string problem = detail::image_size_problem(emb->mWidth, emb->mHeight); !problem.empty())
+      throw InputError(where + " is refused: its " + problem + "; export the garment with a smaller texture");
     t.width = static_cast<int>(emb->mWidth);
     t.height = static_cast<int>(emb->mHeight);
     t.rgba.resize(static_cast<std::size_t>(t.width) * t.height * 4);
@@ -201,8 +210,9 @@ Texture read_texture(const aiScene* scene, const aiMaterial* mat, const std::str
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
   if (ext != ".png") return {};
   std::vector<std::uint8_t> bytes;
-  if (!detail::read_file(file.string(), bytes))
-    throw InputError(where + " cannot be read from '" + file.string() + "'; keep the PNG beside the model");
+  if (!detail::read_file(file.string(), detail::kMaxPngFileBytes, bytes, error))
+    throw InputError(where + " cannot be read from '" + file.string() + "' (" + error +
+                     "); keep the PNG beside the model");
   if (!detail::decode_png(bytes.data(), bytes.size(), true, t.width, t.height, t.rgba, error))
     throw InputError(where + " is not a readable PNG (" + error + "); export the garment again");
   return t;
@@ -243,9 +253,10 @@ void export_garment(const Garment& garment, const std::string& path) {
     const std::string png_name = fpath.stem().string() + ".png";
     if (textured) {
       const fs::path png_path = fpath.parent_path() / png_name;
-      if (!detail::write_file(png_path.string(), texture_png(garment, path)))
+      std::string error;
+      if (!detail::write_file(png_path.string(), texture_png(garment, path), error))
         throw InputError("cannot export '" + path + "': its texture '" + png_path.string() +
-                         "' cannot be written; check the folder is writable");
+                         "' cannot be written: " + error);
     }
     scene = build_scene(garment, textured ? png_name : "");
   }
@@ -275,6 +286,8 @@ Garment import_garment(const std::string& path, const Material& material) {
     throw InputError("cannot import garment '" + path + "': it is not a regular file");
   if (fs::file_size(path, ec) == 0)
     throw InputError("cannot import garment '" + path + "': the file is empty; export the garment again");
+
+  detail::check_before_assimp(path, "cannot import garment '" + path + "'");
 
   Assimp::Importer importer;
   const aiScene* scene = nullptr;
@@ -319,13 +332,21 @@ Garment import_garment(const std::string& path, const Material& material) {
     }
     for (unsigned f = 0; f < am->mNumFaces; ++f) {
       const aiFace& face = am->mFaces[f];
-      if (face.mNumIndices != 3) continue;
+      if (face.mNumIndices != 3 || !face.mIndices) continue;
       std::array<Corner, 3> tri;
       for (int k = 0; k < 3; ++k) {
+        // The importer's own checks differ by format and version: every index is checked here.
         const unsigned i = face.mIndices[k];
+        if (i >= am->mNumVertices)
+          throw InputError("cannot import garment '" + path + "': face " + std::to_string(f + 1) + " of mesh '" +
+                           am->mName.C_Str() + "' refers to vertex " + std::to_string(i + 1) + ", but the mesh has " +
+                           std::to_string(am->mNumVertices) + " vertices; repair the file");
         tri[k].vertex = vid[i];
         tri[k].uv = am->mTextureCoords[0] ? Vec2(am->mTextureCoords[0][i].x, am->mTextureCoords[0][i].y)
                                           : Vec2(points[vid[i]].x(), points[vid[i]].y());
+        if (!all_finite(tri[k].uv))
+          throw InputError("cannot import garment '" + path + "': vertex " + std::to_string(i + 1) +
+                           " has a texture coordinate that is not a finite number; repair the file");
       }
       if (tri[0].vertex == tri[1].vertex || tri[1].vertex == tri[2].vertex || tri[0].vertex == tri[2].vertex)
         continue;  // collapsed by the weld: no area

@@ -7,6 +7,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <cstdlib>
+#include <exception>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -60,6 +61,9 @@ class Pool {
   int threads() const { return threads_; }
 
   // Runs fn over [0, n) in chunks of `grain` items or more (of exactly `grain` when `exact`).
+  // Serially, an exception leaves fn for the caller as it would any loop; shared, the first one
+  // thrown is kept, the chunks not yet claimed are skipped, and it is thrown here once every chunk
+  // is accounted for (the workers never see it leave their loop).
   void run(int n, int grain, void* ctx, RangeFn fn, bool exact = false) {
     std::unique_lock<std::mutex> region(region_, std::try_to_lock);
     if (!region.owns_lock() || workers_.empty()) {
@@ -73,6 +77,8 @@ class Pool {
     fn_ = fn;
     n_ = n;
     chunk_ = chunk;
+    failed_.store(false, std::memory_order_relaxed);
+    error_ = nullptr;
     done_.store(0, std::memory_order_relaxed);
     const std::uint64_t gen = (gen_of(ticket_.load(std::memory_order_relaxed)) + 1) & 0xffffff;
     ticket_.store(pack(gen, chunks, 0), std::memory_order_release);
@@ -82,6 +88,11 @@ class Pool {
     }
     claim(gen);
     while (done_.load(std::memory_order_acquire) < chunks) KIJI_PAUSE();
+    if (failed_.load(std::memory_order_acquire)) {
+      std::exception_ptr error = std::move(error_);
+      error_ = nullptr;
+      std::rethrow_exception(error);
+    }
   }
 
  private:
@@ -93,7 +104,15 @@ class Pool {
       if (!ticket_.compare_exchange_weak(t, t + 1, std::memory_order_acq_rel, std::memory_order_acquire)) continue;
       const int c = static_cast<int>(next_of(t));
       const int b = c * chunk_;
-      fn_(ctx_, b, std::min(n_, b + chunk_));
+      if (!failed_.load(std::memory_order_acquire)) {
+        try {
+          fn_(ctx_, b, std::min(n_, b + chunk_));
+        } catch (...) {
+          std::lock_guard<std::mutex> lock(error_m_);
+          if (!error_) error_ = std::current_exception();
+          failed_.store(true, std::memory_order_release);
+        }
+      }
       done_.fetch_add(1, std::memory_order_acq_rel);
       t = ticket_.load(std::memory_order_acquire);
     }
@@ -132,6 +151,10 @@ class Pool {
   std::atomic<int> sleepers_{0};
   std::atomic<std::uint64_t> ticket_{0};
   std::atomic<int> done_{0};
+  // The first exception a chunk threw in the loop running now (see run).
+  std::atomic<bool> failed_{false};
+  std::mutex error_m_;
+  std::exception_ptr error_;
   void* ctx_ = nullptr;
   RangeFn fn_ = nullptr;
   int n_ = 0, chunk_ = 1;
@@ -142,6 +165,20 @@ Pool& pool() {
   return p;
 }
 
+thread_local double shared_total = 0;
+
+// Counts the loop's time on the calling thread, however it ends.
+class SharedClock {
+ public:
+  SharedClock() : start_(std::chrono::steady_clock::now()) {}
+  ~SharedClock() { shared_total += std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(); }
+  SharedClock(const SharedClock&) = delete;
+  SharedClock& operator=(const SharedClock&) = delete;
+
+ private:
+  std::chrono::steady_clock::time_point start_;
+};
+
 }  // namespace
 
 int thread_count() {
@@ -149,13 +186,25 @@ int thread_count() {
   return n;
 }
 
+double shared_seconds() { return shared_total; }
+
 void for_range(int n, int grain, void* context, RangeFn fn) {
   if (n <= 0) return;
+  SharedClock clock;
+  if (thread_count() <= 1) {
+    fn(context, 0, n);
+    return;
+  }
   pool().run(n, std::max(grain, 1), context, fn);
 }
 
 void for_each(int n, void* context, RangeFn fn) {
   if (n <= 0) return;
+  SharedClock clock;
+  if (thread_count() <= 1) {
+    fn(context, 0, n);
+    return;
+  }
   pool().run(n, 1, context, fn, true);
 }
 

@@ -12,6 +12,10 @@
 // caller (another garment's solver on another thread) runs its loop serially instead of waiting.
 // KIJI_THREADS=N in the environment sets the number of threads (1 = serial); the default is the
 // number of hardware threads, at most 8.
+//
+// An exception thrown by fn in any chunk reaches the caller of the loop: the first one thrown, once
+// every chunk is finished or abandoned (the chunks not yet started when it was thrown are skipped).
+// The pool stays usable.
 #pragma once
 
 #include <algorithm>
@@ -26,6 +30,11 @@ int thread_count();
 void for_range(int n, int grain, void* context, RangeFn fn);
 void for_each(int n, void* context, RangeFn fn);
 
+// Seconds the calling thread has spent in loops large enough to be shared (more items than their
+// grain), since it started, whatever the number of threads: with KIJI_THREADS=1 the share of a
+// step outside them is the part that more cores cannot shorten.
+double shared_seconds();
+
 // The first item of piece `piece` of `pieces` contiguous, near-equal pieces of [0, n) (piece
 // `pieces` gives n): pieces of work whose outputs are joined in order, the same for any thread count.
 inline int piece_begin(int n, int piece, int pieces) {
@@ -39,7 +48,7 @@ inline int piece_count(int n, int grain) { return std::clamp(n / grain, 1, 4 * t
 template <typename F>
 void for_range(int n, int grain, F&& f) {
   if (n <= 0) return;
-  if (n <= grain || thread_count() <= 1) {
+  if (n <= grain) {
     f(0, n);
     return;
   }
@@ -53,8 +62,8 @@ void for_range(int n, int grain, F&& f) {
 template <typename F>
 void for_each(int n, F&& f) {
   if (n <= 0) return;
-  if (n == 1 || thread_count() <= 1) {
-    for (int k = 0; k < n; ++k) f(k);
+  if (n == 1) {
+    f(0);
     return;
   }
   for_each(n, static_cast<void*>(&f), [](void* c, int b, int e) {

@@ -6,9 +6,11 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cctype>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 namespace kiji {
@@ -22,6 +24,88 @@ struct ToolRegistry::Library {
   std::string path;
   void* handle = nullptr;
   const ToolPluginEntry* entry = nullptr;
+};
+
+namespace {
+
+// What `entry->create()` made, or why it made nothing. A plugin can return null or throw anything;
+// neither may take the host down, and a message must be copied out of an exception the plugin threw
+// before its library can be closed (the exception's code lives there).
+struct Created {
+  Tool* tool = nullptr;
+  std::string error;
+};
+
+Created create_tool(const ToolPluginEntry& entry) {
+  Created c;
+  try {
+    c.tool = entry.create();
+    if (!c.tool) c.error = "its create() returned no tool (a null pointer)";
+  } catch (const std::exception& e) {
+    c.error = std::string("its create() threw: ") + e.what();
+  } catch (...) {
+    c.error = "its create() threw something that is not a std::exception";
+  }
+  return c;
+}
+
+// Gives a tool back to the library that made it; a destroy that throws is not the host's problem.
+void destroy_tool(const ToolPluginEntry& entry, Tool* tool) noexcept {
+  try {
+    entry.destroy(tool);
+  } catch (...) {
+  }
+}
+
+}  // namespace
+
+// A plugin's tool as the host holds it: the plugin's own instance, given back to the plugin's
+// `destroy` (the library that allocated it frees it), with what the plugin throws that is not a
+// std::exception turned into a kiji::Error naming the tool, so that no caller meets an exception it
+// cannot catch by type. Its info is the one the loader checked.
+class ToolRegistry::PluginTool final : public Tool {
+ public:
+  PluginTool(std::shared_ptr<const Library> library, const ToolInfo& info) : library_(std::move(library)), info_(info) {
+    Created c = create_tool(*library_->entry);
+    if (!c.tool) throw Error("tool '" + info_.id + "' from " + library_->path + " cannot be created: " + c.error);
+    tool_ = c.tool;
+  }
+  ~PluginTool() override { destroy_tool(*library_->entry, tool_); }
+
+  ToolInfo info() const override { return info_; }
+  Feedback begin(Session& session, const ParamSet& params, const ToolEvent& event) override {
+    return guarded("begin", [&] { return tool_->begin(session, params, event); });
+  }
+  Feedback update(Session& session, const ToolEvent& event) override {
+    return guarded("update", [&] { return tool_->update(session, event); });
+  }
+  void end(Session& session, const ToolEvent& event) override {
+    guarded("end", [&] { tool_->end(session, event); });
+  }
+  void cancel(Session& session) override {
+    guarded("cancel", [&] { tool_->cancel(session); });
+  }
+  Feedback haptic_force(const HapticSnapshot& snapshot, const ToolEvent& event) const override {
+    return guarded("haptic_force", [&] { return tool_->haptic_force(snapshot, event); });
+  }
+
+ private:
+  template <typename F>
+  auto guarded(const char* call, F&& f) const -> decltype(f()) {
+    try {
+      return f();
+    } catch (const std::exception&) {
+      throw;  // the host catches these by type (kiji::InputError and the rest)
+    } catch (...) {
+      throw Error("tool '" + info_.id + "' (" + library_->path + ") threw something that is not a "
+                  "std::exception from " + call + "(); its author should throw kiji::InputError or another "
+                  "std::exception");
+    }
+  }
+
+  std::shared_ptr<const Library> library_;
+  ToolInfo info_;
+  Tool* tool_ = nullptr;
 };
 
 namespace {
@@ -48,10 +132,25 @@ json param_json(const ParamSpec& p) {
   return j;
 }
 
-std::string library_beside(const fs::path& metadata, const json& j) {
-  if (j.contains("library") && j["library"].is_string()) return (metadata.parent_path() / j["library"].get<std::string>()).string();
-  fs::path lib = metadata;
-  return lib.replace_extension(".so").string();
+// The library a metadata file describes: the file it names beside it, or the same stem with .so.
+// Only a file name is accepted, so that metadata cannot send the host to load a library elsewhere.
+bool library_beside(const fs::path& metadata, const json& j, std::string& path, std::string& error) {
+  if (!j.contains("library")) {
+    path = fs::path(metadata).replace_extension(".so").string();
+    return true;
+  }
+  if (!j["library"].is_string()) {
+    error = "its field 'library' is not a string";
+    return false;
+  }
+  const std::string name = j["library"].get<std::string>();
+  if (name.empty() || name == "." || name == ".." || name.find('/') != std::string::npos ||
+      name.find('\0') != std::string::npos) {
+    error = "its field 'library' is '" + name + "', not the file name of a library beside it";
+    return false;
+  }
+  path = (metadata.parent_path() / name).string();
+  return true;
 }
 
 std::vector<std::string> split_path(const char* text) {
@@ -64,7 +163,36 @@ std::vector<std::string> split_path(const char* text) {
   return out;
 }
 
+// Plugin metadata is a few kilobytes; anything far larger is not metadata.
+constexpr std::uintmax_t kMaxMetadataBytes = 1 << 20;
+
+bool is_identifier(const std::string& s) {
+  if (s.empty() || !(std::isalpha(static_cast<unsigned char>(s[0])) || s[0] == '_')) return false;
+  for (char c : s)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_')) return false;
+  return true;
+}
+
 }  // namespace
+
+void check_tool_info(const ToolInfo& info) {
+  if (!is_identifier(info.id))
+    throw InputError("tool id '" + info.id + "' is not a verb usable as a Python name (letters, digits and _)");
+  if (info.label.empty()) throw InputError("tool '" + info.id + "' has no label");
+  std::set<std::string> names;
+  for (const auto& p : info.parameters) {
+    if (!is_identifier(p.name))
+      throw InputError("tool '" + info.id + "': parameter name '" + p.name +
+                       "' is not an identifier: use letters, digits and _");
+    if (!names.insert(p.name).second)
+      throw InputError("tool '" + info.id + "': parameter '" + p.name + "' is declared twice");
+    try {
+      p.check(p.default_value);
+    } catch (const Error& e) {
+      throw InputError("tool '" + info.id + "': the default of " + e.what());
+    }
+  }
+}
 
 ToolRegistry::ToolRegistry() = default;
 ToolRegistry::~ToolRegistry() = default;
@@ -95,7 +223,12 @@ std::vector<PluginReport> ToolRegistry::load_plugins(const std::vector<std::stri
       continue;
     }
     std::vector<fs::path> files;
-    for (const auto& e : fs::directory_iterator(folder, ec)) files.push_back(e.path());
+    fs::directory_iterator it(folder, ec), end;
+    for (; !ec && it != end; it.increment(ec)) files.push_back(it->path());
+    if (ec) {
+      reports.push_back({folder, "", false, "plugin folder cannot be listed: " + ec.message()});
+      continue;
+    }
     std::sort(files.begin(), files.end());
     for (const auto& f : files) {
       if (f.extension() == ".json") {
@@ -103,7 +236,7 @@ std::vector<PluginReport> ToolRegistry::load_plugins(const std::vector<std::stri
       } else if (f.extension() == ".so") {
         fs::path meta = f;
         meta.replace_extension(".json");
-        if (!fs::exists(meta))
+        if (!fs::exists(meta, ec))
           reports.push_back({f.string(), "", false,
                              "no metadata file " + meta.filename().string() +
                                  " beside it: build the plugin with kiji_add_tool() so the host can "
@@ -124,7 +257,17 @@ PluginReport ToolRegistry::load_plugin(const std::string& path) {
   };
   fs::path meta = path;
   if (meta.extension() != ".json") meta.replace_extension(".json");
-  std::ifstream in(meta);
+  // Only a regular file of a sensible size is read: a FIFO would block the host, a device never end.
+  std::error_code ec;
+  if (!fs::is_regular_file(meta, ec))
+    return refuse("cannot read the plugin's metadata file " + meta.string() + ": " +
+                  (fs::exists(meta, ec) ? "it is not a regular file" : "it does not exist"));
+  const std::uintmax_t size = fs::file_size(meta, ec);
+  if (ec || size > kMaxMetadataBytes)
+    return refuse("the plugin's metadata file " + meta.string() + " is " +
+                  (ec ? "unreadable" : std::to_string(size) + " bytes") + ", not metadata (at most " +
+                  std::to_string(kMaxMetadataBytes) + " bytes); rebuild the plugin with kiji_add_tool()");
+  std::ifstream in(meta, std::ios::binary);
   if (!in) return refuse("cannot read the plugin's metadata file " + meta.string());
   json j;
   try {
@@ -143,13 +286,15 @@ PluginReport ToolRegistry::load_plugin(const std::string& path) {
   const std::string abi = j["abi"].get<std::string>();
   if (abi != abi_tag())
     return refuse("plugin '" + report.id + "' was built for another ABI (" + abi + ") than this Kiji's (" +
-                  abi_tag() + "): rebuild it against this Kiji's headers with the same compiler");
+                  abi_tag() + "): " + abi_difference(abi, abi_tag()));
   if (tools_.count(report.id))
     return refuse("tool id '" + report.id + "' is already taken by " + tools_.at(report.id).origin +
                   ": remove one of the two plugins or give one another id");
-  const std::string lib_path = library_beside(meta, j);
+  std::string lib_path, lib_error;
+  if (!library_beside(meta, j, lib_path, lib_error)) return refuse("metadata " + meta.string() + ": " + lib_error);
   report.path = lib_path;
-  if (!fs::exists(lib_path)) return refuse("library " + lib_path + " named by " + meta.string() + " does not exist");
+  if (!fs::exists(lib_path, ec)) return refuse("library " + lib_path + " named by " + meta.string() + " does not exist");
+  if (!fs::is_regular_file(lib_path, ec)) return refuse("library " + lib_path + " is not a regular file");
 
   dlerror();
   void* handle = dlopen(lib_path.c_str(), RTLD_NOW | RTLD_LOCAL);
@@ -157,36 +302,46 @@ PluginReport ToolRegistry::load_plugin(const std::string& path) {
     const char* err = dlerror();
     return refuse(lib_path + " is not a loadable library: " + std::string(err ? err : "unknown error"));
   }
+  // Every refusal from here closes the library, after everything its code made is gone.
+  auto refuse_loaded = [&](const std::string& why) {
+    dlclose(handle);
+    return refuse(why);
+  };
   using EntryFn = const ToolPluginEntry* (*)();
   auto fn = reinterpret_cast<EntryFn>(dlsym(handle, KIJI_TOOL_PLUGIN_SYMBOL));
-  if (!fn) {
-    dlclose(handle);
-    return refuse(lib_path + " has no entry point " KIJI_TOOL_PLUGIN_SYMBOL
-                             ": a tool library must name its tool with KIJI_TOOL_PLUGIN(...)");
-  }
+  if (!fn)
+    return refuse_loaded(lib_path + " has no entry point " KIJI_TOOL_PLUGIN_SYMBOL
+                                    ": a tool library must name its tool with KIJI_TOOL_PLUGIN(...)");
   const ToolPluginEntry* entry = fn();
-  if (!entry || !entry->interface_id || !entry->abi_tag || !entry->create || !entry->destroy) {
-    dlclose(handle);
-    return refuse(lib_path + " returned an incomplete plugin entry");
-  }
-  if (std::string(entry->interface_id) != KIJI_TOOL_INTERFACE || std::string(entry->abi_tag) != abi_tag()) {
-    const std::string built = std::string(entry->interface_id) + ", " + entry->abi_tag;
-    dlclose(handle);
-    return refuse(lib_path + " was built for " + built + ", not for this Kiji (" KIJI_TOOL_INTERFACE ", " +
-                  abi_tag() + "), though its metadata says otherwise: rebuild the plugin");
-  }
+  if (!entry || !entry->interface_id || !entry->abi_tag || !entry->create || !entry->destroy)
+    return refuse_loaded(lib_path + " returned an incomplete plugin entry");
+  if (std::string(entry->interface_id) != KIJI_TOOL_INTERFACE)
+    return refuse_loaded(lib_path + " was built for " + entry->interface_id + ", not for this Kiji's " +
+                         KIJI_TOOL_INTERFACE + ", though its metadata says otherwise: rebuild the plugin");
+  if (const std::string diff = abi_difference(entry->abi_tag, abi_tag()); !diff.empty())
+    return refuse_loaded(lib_path + " was built for the ABI " + entry->abi_tag + ", not for this Kiji's (" +
+                         abi_tag() + "), though its metadata says otherwise: " + diff);
+
+  // One tool made and given back, to read what the library says of itself.
+  const Created probe = create_tool(*entry);
+  if (!probe.tool) return refuse_loaded(lib_path + " cannot make its tool: " + probe.error);
   ToolInfo info;
+  std::string info_error;
   try {
-    Tool* probe = entry->create();
-    info = probe->info();
-    entry->destroy(probe);
+    info = probe.tool->info();
   } catch (const std::exception& e) {
-    dlclose(handle);
-    return refuse(lib_path + " failed to create its tool: " + e.what());
+    info_error = std::string("its tool's info() threw: ") + e.what();
+  } catch (...) {
+    info_error = "its tool's info() threw something that is not a std::exception";
   }
-  if (info.id != report.id) {
-    dlclose(handle);
-    return refuse(lib_path + " makes a tool with id '" + info.id + "' but its metadata says '" + report.id + "'");
+  destroy_tool(*entry, probe.tool);
+  if (!info_error.empty()) return refuse_loaded(lib_path + " cannot describe its tool: " + info_error);
+  if (info.id != report.id)
+    return refuse_loaded(lib_path + " makes a tool with id '" + info.id + "' but its metadata says '" + report.id + "'");
+  try {
+    check_tool_info(info);
+  } catch (const Error& e) {
+    return refuse_loaded(lib_path + ": " + e.what());
   }
   auto library = std::make_shared<Library>();
   library->path = lib_path;
@@ -194,9 +349,11 @@ PluginReport ToolRegistry::load_plugin(const std::string& path) {
   library->entry = entry;
   libraries_.push_back(library);
   Entry e;
-  e.info = std::move(info);
+  e.info = info;
   e.origin = lib_path;
-  e.factory = [library]() { return std::unique_ptr<Tool>(library->entry->create()); };
+  e.factory = [library, info = std::move(info)]() -> std::unique_ptr<Tool> {
+    return std::make_unique<PluginTool>(library, info);
+  };
   tools_.emplace(report.id, std::move(e));
   report.loaded = true;
   return report;
@@ -204,9 +361,12 @@ PluginReport ToolRegistry::load_plugin(const std::string& path) {
 
 void ToolRegistry::add(const std::string& id, ToolFactory factory, std::string origin) {
   if (tools_.count(id)) throw InputError("tool id '" + id + "' is already taken by " + tools_.at(id).origin);
+  const std::unique_ptr<Tool> probe = factory ? factory() : nullptr;
+  if (!probe) throw InputError("tool '" + id + "' registered with a factory that makes no tool");
   Entry e;
-  e.info = factory()->info();
+  e.info = probe->info();
   if (e.info.id != id) throw InputError("tool registered as '" + id + "' says its id is '" + e.info.id + "'");
+  check_tool_info(e.info);
   e.origin = std::move(origin);
   e.factory = std::move(factory);
   tools_.emplace(id, std::move(e));
@@ -239,7 +399,9 @@ ToolInfo ToolRegistry::info(const std::string& id) const {
 std::unique_ptr<Tool> ToolRegistry::create(const std::string& id) const {
   auto it = tools_.find(id);
   if (it == tools_.end()) throw InputError(unknown_tool(id, ids()));
-  return it->second.factory();
+  std::unique_ptr<Tool> tool = it->second.factory();
+  if (!tool) throw Error("tool '" + id + "' (" + it->second.origin + ") made no tool");
+  return tool;
 }
 
 std::string ToolRegistry::origin(const std::string& id) const {

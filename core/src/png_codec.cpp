@@ -9,7 +9,6 @@
 
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 
 namespace kiji {
 
@@ -39,11 +38,21 @@ bool encode_png(int width, int height, const std::uint8_t* rgba, bool flip_rows,
   return true;
 }
 
+std::string image_size_problem(std::uint64_t width, std::uint64_t height) {
+  if (width == 0 || height == 0)
+    return "image size " + std::to_string(width) + "x" + std::to_string(height) + " is empty";
+  if (width > kMaxImageSide || height > kMaxImageSide || width * height > kMaxImagePixels)
+    return "image size " + std::to_string(width) + "x" + std::to_string(height) + " is larger than Kiji reads (at most " +
+           std::to_string(kMaxImageSide) + " pixels a side and " + std::to_string(kMaxImagePixels) +
+           " pixels in all, 256 MiB as RGBA)";
+  return {};
+}
+
 bool decode_png(const std::uint8_t* data, std::size_t size, bool flip_rows, int& width, int& height,
                 std::vector<std::uint8_t>& rgba, std::string& error) {
   png_image image{};
   image.version = PNG_IMAGE_VERSION;
-  if (size < 8 || png_sig_cmp(data, 0, 8) != 0) {
+  if (!data || size < 8 || png_sig_cmp(data, 0, 8) != 0) {
     error = "not a PNG file (no PNG signature)";
     return false;
   }
@@ -53,36 +62,72 @@ bool decode_png(const std::uint8_t* data, std::size_t size, bool flip_rows, int&
     return false;
   }
   image.format = PNG_FORMAT_RGBA;
-  if (image.width == 0 || image.height == 0 || image.width > 32768 || image.height > 32768) {
-    error = "image size " + std::to_string(image.width) + "x" + std::to_string(image.height) +
-            " is out of range";
+  error = image_size_problem(image.width, image.height);
+  // The scanlines take at least one bit a pixel and a filter byte a row, and deflate packs at most
+  // 1032 bytes into one: a file too small for the size it declares is corrupt or crafted, and is
+  // refused before its pixels are allocated.
+  const std::uint64_t least_scanline_bytes = std::uint64_t(image.height) * (1 + (std::uint64_t(image.width) + 7) / 8);
+  if (error.empty() && least_scanline_bytes > std::uint64_t(size) * 1032 + 1024)
+    error = "the file is " + std::to_string(size) + " bytes but declares a " + std::to_string(image.width) + "x" +
+            std::to_string(image.height) + " image, more than a PNG file of its size can hold: it is corrupt";
+  if (!error.empty()) {
     png_image_free(&image);
     return false;
   }
   width = static_cast<int>(image.width);
   height = static_cast<int>(image.height);
-  rgba.assign(PNG_IMAGE_SIZE(image), 0);
+  rgba.assign(std::size_t(4) * image.width * image.height, 0);
   const png_int_32 stride = (flip_rows ? -1 : 1) * static_cast<png_int_32>(4 * width);
   if (!png_image_finish_read(&image, nullptr, rgba.data(), stride, nullptr)) {
     error = image.message;
     png_image_free(&image);
+    rgba.clear();
     return false;
   }
   return true;
 }
 
-bool read_file(const std::string& path, std::vector<std::uint8_t>& out) {
+bool read_file(const std::string& path, std::uint64_t max_bytes, std::vector<std::uint8_t>& out, std::string& error) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) {
+    error = fs::exists(path, ec) ? "it is not a regular file" : "the file does not exist";
+    return false;
+  }
+  const std::uintmax_t size = fs::file_size(path, ec);
+  if (ec || size > max_bytes) {
+    error = ec ? "its size cannot be read" : "it is " + std::to_string(size) + " bytes, more than the " +
+                                                 std::to_string(max_bytes) + " Kiji reads";
+    return false;
+  }
   std::ifstream in(path, std::ios::binary);
-  if (!in) return false;
-  out.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  return !in.bad();
+  if (!in) {
+    error = "the file cannot be opened; check its permissions";
+    return false;
+  }
+  out.resize(size);
+  in.read(reinterpret_cast<char*>(out.data()), static_cast<std::streamsize>(size));
+  if (static_cast<std::uintmax_t>(in.gcount()) != size) {
+    error = "the file could not be read to its end";
+    return false;
+  }
+  return true;
 }
 
-bool write_file(const std::string& path, const std::vector<std::uint8_t>& data) {
+bool write_file(const std::string& path, const std::vector<std::uint8_t>& data, std::string& error) {
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec)) {
+    error = "it exists and is not a regular file (a folder, a FIFO or a device); give the path of a file";
+    return false;
+  }
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) return false;
+  if (!out) {
+    error = "the file cannot be created; check that the folder exists and is writable";
+    return false;
+  }
   out.write(reinterpret_cast<const char*>(data.data()), static_cast<std::streamsize>(data.size()));
   out.close();
+  if (!out) error = "writing it failed; check the disk has room";
   return static_cast<bool>(out);
 }
 
@@ -98,22 +143,15 @@ void write_png(const Image& image, const std::string& path) {
   std::string error;
   if (!detail::encode_png(image.width, image.height, image.rgba.data(), false, bytes, error))
     throw InputError("cannot write PNG '" + path + "': " + error);
-  if (!detail::write_file(path, bytes))
-    throw InputError("cannot write PNG '" + path + "': the file cannot be created; check that the folder "
-                     "exists and is writable");
+  if (!detail::write_file(path, bytes, error)) throw InputError("cannot write PNG '" + path + "': " + error);
 }
 
 Image read_png(const std::string& path) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec))
-    throw InputError("cannot read PNG '" + path + "': " +
-                     (std::filesystem::exists(path, ec) ? "it is not a regular file" : "the file does not exist") +
-                     "; check the path");
   std::vector<std::uint8_t> bytes;
-  if (!detail::read_file(path, bytes))
-    throw InputError("cannot read PNG '" + path + "': the file cannot be opened; check its permissions");
-  Image image;
   std::string error;
+  if (!detail::read_file(path, detail::kMaxPngFileBytes, bytes, error))
+    throw InputError("cannot read PNG '" + path + "': " + error + "; check the path");
+  Image image;
   if (!detail::decode_png(bytes.data(), bytes.size(), false, image.width, image.height, image.rgba, error))
     throw InputError("cannot read PNG '" + path + "': " + error + "; give a PNG image");
   return image;

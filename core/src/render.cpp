@@ -112,6 +112,12 @@ class Raster {
   }
 
   int height() const { return h_; }
+  int width() const { return w_; }
+  // The depth of the nearest surface drawn at a pixel (infinity where nothing is).
+  float depth_at(int x, int y) const {
+    const float z_inv = depth_[static_cast<std::size_t>(y) * w_ + x];
+    return z_inv > 0 ? 1.0f / z_inv : std::numeric_limits<float>::infinity();
+  }
 
   Image finish() const {
     Image img;
@@ -474,23 +480,51 @@ Camera Camera::framing(const Box3& box) {
   return c;
 }
 
-Image render(const std::vector<const Garment*>& garments, const Body* body, const Camera& camera,
-             int width, int height) {
+namespace {
+
+// The scene drawn into a raster: the body first (from the last frame's layer when the body, camera
+// and size are the same), then each garment in turn over it.
+Raster draw_scene(const std::vector<const Garment*>& garments, const Body* body, const Camera& camera, int width,
+                  int height) {
   if (width < 1 || height < 1 || width > 16384 || height > 16384)
     throw InputError("image size " + std::to_string(width) + "x" + std::to_string(height) +
                      " is out of range: use 1 to 16384 pixels a side");
   for (std::size_t i = 0; i < garments.size(); ++i)
     if (!garments[i]) throw InputError("garment " + std::to_string(i) + " to render is null");
   const View view = make_view(camera, width, height);
-  // The body first (from the last frame's layer when the body, camera and size are the same), then
-  // each garment in turn over it.
   Raster raster = body ? body_layer(*body, camera, view, width, height) : Raster(width, height, view);
   if (!garments.empty()) {
     Batch batch(height);
     for (const Garment* g : garments) batch.add_garment(*g, view);
     batch.draw(raster);
   }
-  return raster.finish();
+  return raster;
+}
+
+}  // namespace
+
+Image render(const std::vector<const Garment*>& garments, const Body* body, const Camera& camera,
+             int width, int height) {
+  return draw_scene(garments, body, camera, width, height).finish();
+}
+
+std::vector<bool> visible_points(const std::vector<const Garment*>& garments, const Body* body, const Camera& camera,
+                                 int width, int height, const std::vector<Vec3>& points, double tolerance) {
+  if (!(std::isfinite(tolerance) && tolerance >= 0))
+    throw InputError("visible_points: the tolerance must be a distance of 0 or more metres");
+  const Raster raster = draw_scene(garments, body, camera, width, height);
+  const View view = make_view(camera, width, height);
+  std::vector<bool> seen(points.size(), false);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (!all_finite(points[i])) continue;
+    const V3 p = view.to_camera(points[i]);
+    if (!(p.z() >= kNear)) continue;
+    const V3 s = view.to_screen(p);
+    const int x = static_cast<int>(std::floor(s.x())), y = static_cast<int>(std::floor(s.y()));
+    if (x < 0 || y < 0 || x >= width || y >= height) continue;
+    seen[i] = p.z() <= raster.depth_at(x, y) + tolerance;
+  }
+  return seen;
 }
 
 }  // namespace kiji

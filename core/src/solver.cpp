@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -662,6 +663,8 @@ void Solver::step(Garment& garment, double dt) {
   }
 
   State& s = *state_;
+  const auto started = std::chrono::steady_clock::now();
+  const double shared_before = parallel::shared_seconds();
   build_if_needed(s, garment);
 
   // Mirror the mesh into the flat arrays.
@@ -737,19 +740,30 @@ void Solver::step(Garment& garment, double dt) {
 
   const BodyCollider* body = (params_.body_collision && collider_) ? collider_.get() : nullptr;
   s.report = StepReport{};
+  // The report's times (the rest of the step's, below, once it is written back).
+  auto finish_times = [&] {
+    s.report.ms.total = 1000 * std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    s.report.ms.shared = 1000 * (parallel::shared_seconds() - shared_before);
+  };
   if (mass_spring)
     solver_detail::step_mass_spring(s, params_, mat, body, dt);
   else
     solver_detail::step_xpbd(s, params_, mat, body, dt);
 
-  // Refuse to write a diverged state back (the garment keeps its last good state).
+  // A diverged state is never written back: the step is undone (the garment keeps the state it
+  // had, and the arrays, whose collision margins the step left non-finite, are built again from it).
   const int diverged = first_where(static_cast<int>(n), [&](int i) {
     return s.moving[i] && (!all_finite(s.x[i]) || !all_finite(s.v[i]));
   });
   if (diverged >= 0) {
     s.built = false;
-    throw InputError("the simulation diverged (non-finite state) at vertex " + std::to_string(diverged) +
-                     ": lower dt or spring_k, or raise substeps; the garment was left as it was");
+    finish_times();
+    std::ostringstream msg;
+    msg << "the simulation of garment '" << garment.name << "' diverged at vertex " << diverged
+        << " (its position or velocity would have become infinite or NaN): the step was undone and the garment is as "
+           "it was; lower the forces or the hands' stiffness, ";
+    msg << (mass_spring ? "lower spring_k or spring_damping, " : "") << "or raise substeps (now " << params_.substeps << ")";
+    throw SimulationError(msg.str());
   }
   const bool fell_asleep = solver_detail::sleep_after_step(s, params_, dt);
   parallel::for_range(static_cast<int>(n), 4096, [&](int b, int e) {
@@ -767,6 +781,7 @@ void Solver::step(Garment& garment, double dt) {
     }
   });
   if (fell_asleep) garment.set_sleep_record(solver_detail::sleep_record(s));
+  finish_times();
 }
 
 StepReport Solver::last_step() const { return state_->report; }

@@ -20,6 +20,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -75,6 +76,7 @@ void set_body(SolverArrays& s, const Body* body) {
     b.extend(bt.a);
     b.extend(bt.b);
     b.extend(bt.c);
+    if (BodyCollider::degenerate(*body, t)) b.setEmpty();  // no candidate (see BodyCollider)
     s.body_tris.push_back(bt);
     s.body_boxes.push_back(b);
     s.body_bounds.extend(b);
@@ -717,7 +719,7 @@ void partition_self_pairs(SolverArrays& s) {
     bound[k - 1] = *at;
   }
   auto slab = [&](int v) {
-    return static_cast<int>(std::upper_bound(bound, bound + kSelfSlabs - 1, s.x[v][axis]) - bound);
+    return static_cast<int>(std::upper_bound(std::begin(bound), std::end(bound), s.x[v][axis]) - bound);
   };
   s.pair_slab.resize(np);
   int count[kSelfSlabs + 1] = {0};

@@ -11,6 +11,7 @@
 #include <BulletCollision/BroadphaseCollision/btDbvt.h>
 
 #include <array>
+#include <chrono>
 #include <cstdint>
 #include <vector>
 
@@ -214,6 +215,24 @@ struct SolverArrays {
   std::size_t last_body_candidates = 0;
   std::size_t last_self_pairs = 0;
   StepReport report;  // what the last step did (Solver::last_step)
+};
+
+// Adds the wall-clock time from its making to its end to one of the step report's figures (ms).
+class PhaseClock {
+ public:
+  explicit PhaseClock(double& ms) : ms_(&ms), start_(std::chrono::steady_clock::now()) {}
+  ~PhaseClock() { stop(); }
+  PhaseClock(const PhaseClock&) = delete;
+  PhaseClock& operator=(const PhaseClock&) = delete;
+  // Ends the phase before the end of the scope.
+  void stop() {
+    if (ms_) *ms_ += 1000 * std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    ms_ = nullptr;
+  }
+
+ private:
+  double* ms_;
+  std::chrono::steady_clock::time_point start_;
 };
 
 // Implemented in the model files (Solver::State derives from SolverArrays).

@@ -338,10 +338,13 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
       s.x0[i] = s.x[i];
     }
   });
-  if (body && !s.body_tris.empty())
-    gather_body_candidates(s, *body, th);
-  else
-    s.contact_verts.clear();
+  {
+    PhaseClock clock(s.report.ms.body);
+    if (body && !s.body_tris.empty())
+      gather_body_candidates(s, *body, th);
+    else
+      s.contact_verts.clear();
+  }
   s.self_pairs.clear();
   const int window = self_window(s, p, th);
   s.path.assign(n, 0.0);
@@ -367,6 +370,7 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
   const double* W = s.w.data();
   for (int sub = 0; sub < substeps; ++sub) {
     if (p.self_collision && sub % window == 0) {
+      PhaseClock clock(s.report.ms.self_search);
       // The pairs for the next `window` substeps (fewer at the step's end), gathered from where
       // the cloth is now along its present velocity.
       const int len = std::min(window, substeps - sub);
@@ -379,6 +383,7 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
       gather_self_pairs(s, th, double(len) / substeps);
       std::fill(s.path.begin(), s.path.end(), 0.0);
     }
+    PhaseClock solve_clock(s.report.ms.solve);
     parallel::for_range(na, kVertexGrain, [&](int b, int e) {
       for (int a = b; a < e; ++a) {
         const int i = act[a];
@@ -475,11 +480,13 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
       X[i] += W[i] * corr;
       X[j] -= W[j] * corr;
     }
+    solve_clock.stop();
     // Self-collision, then the strain limit (a self-collision push of up to half the thickness
     // stretches the edges of a fold by as much: the limit takes it back, and what it leaves is
     // resolved in the next substep), then the firm hands, then the body last, so nothing ends a
     // substep inside it.
     if (!s.self_pairs.empty()) {
+      PhaseClock clock(s.report.ms.self_resolve);
       parallel::for_range(na, kVertexGrain, [&](int b, int e) {
         for (int a = b; a < e; ++a) {
           const int i = act[a];
@@ -488,15 +495,21 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
       });
       resolve_self(s, th);
     }
-    if (p.strain_limit > 0) limit_strain(s, cs, p.strain_limit);
+    if (p.strain_limit > 0) {
+      PhaseClock clock(s.report.ms.strain_limit);
+      limit_strain(s, cs, p.strain_limit);
+    }
     // Firm hands, after the cloth's own constraints and the strain limit so that they win ties: a
     // firm hand can stretch the cloth past the limit, and so tear it.
     hands(true);
-    // Each contact moves only its own vertex.
-    parallel::for_range(static_cast<int>(s.contact_verts.size()), kContactGrain, [&](int b, int e) {
-      for (int k = b; k < e; ++k) resolve_body(s, s.contact_verts[k], th, m.friction);
-    });
-    if (body && !s.body_tris.empty()) resolve_escaped(s, *body, th, m.friction);
+    {
+      PhaseClock clock(s.report.ms.body);
+      // Each contact moves only its own vertex.
+      parallel::for_range(static_cast<int>(s.contact_verts.size()), kContactGrain, [&](int b, int e) {
+        for (int k = b; k < e; ++k) resolve_body(s, s.contact_verts[k], th, m.friction);
+      });
+      if (body && !s.body_tris.empty()) resolve_escaped(s, *body, th, m.friction);
+    }
     const double inv_h = 1.0 / h;
     parallel::for_range(na, kVertexGrain, [&](int b, int e) {
       for (int a = b; a < e; ++a) {

@@ -47,6 +47,7 @@ from ._kiji import (
     ParamSpec,
     Peer,
     ScriptedDevice,
+    SimulationError,
     Solver,
     SolverParams,
     StepReport,
@@ -94,6 +95,7 @@ from ._kiji import (
     take_snapshot,
     tool_metadata_json,
     version,
+    visible_points,
     write_png,
 )
 from ._session import (
@@ -118,7 +120,8 @@ _member_docs.apply()
 __all__ = [
     "Body", "BodyCollider", "BodyContact", "Camera", "ClothMeasures", "DrapeResult", "Error", "Feedback",
     "Garment", "HapticLoop", "HapticSnapshot", "HistoryStep", "InputDevice", "InputError", "JournalFile",
-    "JournalStroke", "Material", "Operation", "ParamSpec", "Peer", "ScriptedDevice", "Session", "Solver", "SolverParams",
+    "JournalStroke", "Material", "Operation", "ParamSpec", "Peer", "ScriptedDevice", "Session", "SimulationError",
+    "Solver", "SolverParams",
     "StepReport", "SurfaceHit", "Tool", "ToolEvent", "ToolHaptics", "ToolInfo", "ToolInstance", "ToolRegistry", "ToolSession",
     "TopologyError", "ENTRY_POINT_GROUP", "JOURNAL_FILE_VERSION", "OPERATION_FORMAT_VERSION", "PACKAGE_PLUGIN_FOLDER",
     "SESSION_CHANNEL", "SESSION_FILE_PROTOCOL", "abi_tag", "append_garment", "axis_names", "border_loops",
@@ -128,7 +131,7 @@ __all__ = [
     "place_over_body", "plugin_folders", "plugin_reports", "read_journal", "read_png", "recover", "rectangle",
     "register_tool", "registry", "remove_edge", "remove_edges", "render", "save_journal", "save_operations", "session_state_hash",
     "split_vertex", "split_vertex_between", "stitch", "strokes_of", "take_snapshot", "tool_info",
-    "tool_metadata_json", "tools", "unregister_tool", "use_registry", "version", "write_png",
+    "tool_metadata_json", "tools", "unregister_tool", "use_registry", "version", "visible_points", "write_png",
 ]
 
 # Last: a tool package's module may itself `import kiji` and subclass kiji.Tool.

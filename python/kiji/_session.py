@@ -21,7 +21,7 @@ PACKAGE_PLUGIN_FOLDER = os.path.join(os.path.dirname(os.path.abspath(__file__)),
 # Keyword arguments of every tool method that describe the stroke rather than the tool.
 STROKE_ARGUMENTS = ("stroke", "times", "dt", "buttons", "pressure", "rays", "orientations", "progress")
 
-_PYTHON_TYPES = {"bool": "bool", "int": "int", "float": "float", "string": "str", "choice": "str",
+_PYTHON_TYPES = {"bool": "bool", "int": "int", "float": "float", "str": "str", "choice": "str",
                  "color": "tuple[float, float, float]"}
 
 

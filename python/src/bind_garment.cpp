@@ -435,20 +435,24 @@ void bind_garment(py::module_& m) {
         py::arg("path"), py::arg("material") = py::none(), "Reads a garment from .glb, .gltf or .obj.");
   m.def("export_garment", [](const Ref& r, const std::string& path) { export_garment(r.get(), path); },
         py::arg("garment"), py::arg("path"), "Writes a .glb (with uv and texture) or .obj (+ .mtl + .png).");
+  // The garments to draw and the box a default camera frames (the body and the garments).
+  auto scene_of = [](const std::vector<std::shared_ptr<Ref>>& garments, const Body* body, const char* what) {
+    std::pair<std::vector<const Garment*>, Box3> scene;
+    if (body) scene.second.extend(body->bounds());
+    for (const auto& r : garments) {
+      if (!r) throw py::type_error(std::string(what) + ": garments must be kiji.Garment objects");
+      scene.first.push_back(&r->get());
+      scene.second.extend(r->get().bounds());
+    }
+    if (scene.second.isEmpty()) scene.second = Box3(Vec3(-1, 0, -1), Vec3(1, 2, 1));
+    return scene;
+  };
   m.def("render",
-        [](const std::vector<std::shared_ptr<Ref>>& garments, const Body* body, std::optional<Camera> camera, int width,
-           int height) {
+        [scene_of](const std::vector<std::shared_ptr<Ref>>& garments, const Body* body, std::optional<Camera> camera,
+                   int width, int height) {
           if (width < 1 || height < 1 || width > 16384 || height > 16384)
             throw InputError("render: width and height must be 1 to 16384 pixels");
-          std::vector<const Garment*> gs;
-          Box3 frame;
-          if (body) frame.extend(body->bounds());
-          for (const auto& r : garments) {
-            if (!r) throw py::type_error("render: garments must be kiji.Garment objects");
-            gs.push_back(&r->get());
-            frame.extend(r->get().bounds());
-          }
-          if (frame.isEmpty()) frame = Box3(Vec3(-1, 0, -1), Vec3(1, 2, 1));
+          const auto [gs, frame] = scene_of(garments, body, "render");
           const Camera cam = camera ? *camera : Camera::framing(frame);
           Image image;
           {
@@ -463,6 +467,28 @@ void bind_garment(py::module_& m) {
         py::arg("width") = 1024, py::arg("height") = 768,
         "A picture of garments (and a body) without a window: an (H, W, 4) uint8 array. The default\n"
         "camera frames everything from the front.");
+  m.def("visible_points",
+        [scene_of](py::handle points, const std::vector<std::shared_ptr<Ref>>& garments, const Body* body,
+                   std::optional<Camera> camera, int width, int height, double tolerance) {
+          const auto p = real_array(points, "points", -1, 3);
+          std::vector<Vec3> ps(p.shape(0));
+          for (std::size_t i = 0; i < ps.size(); ++i) ps[i] = Vec3(p.at(i, 0), p.at(i, 1), p.at(i, 2));
+          const auto [gs, frame] = scene_of(garments, body, "visible_points");
+          const Camera cam = camera ? *camera : Camera::framing(frame);
+          std::vector<bool> seen;
+          {
+            py::gil_scoped_release nogil;
+            seen = visible_points(gs, body, cam, width, height, ps, tolerance);
+          }
+          py::array_t<bool> a(static_cast<py::ssize_t>(seen.size()));
+          for (std::size_t i = 0; i < seen.size(); ++i) a.mutable_at(i) = seen[i];
+          return a;
+        },
+        py::arg("points"), py::arg("garments"), py::arg("body") = nullptr, py::kw_only(),
+        py::arg("camera") = py::none(), py::arg("width") = 1024, py::arg("height") = 768,
+        py::arg("tolerance") = 0.005,
+        "(N,) bool: which of the (N, 3) points the picture render() would draw shows, each not hidden\n"
+        "behind the body or cloth by more than `tolerance` metres along its ray.");
 }
 
 }  // namespace kiji::python

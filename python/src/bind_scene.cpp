@@ -147,6 +147,17 @@ void bind_scene(py::module_& m) {
                     "edges found beyond the strain limit, summed over the substeps: a large share of the edges "
                     "every substep means the cloth is held by the limit, not by its own stiffness (more substeps "
                     "or iterations, or a stiffer cloth)")
+      .def_property_readonly(
+          "ms",
+          [](const StepReport& r) {
+            return py::dict(py::arg("total") = r.ms.total, py::arg("solve") = r.ms.solve,
+                            py::arg("strain_limit") = r.ms.strain_limit, py::arg("self_search") = r.ms.self_search,
+                            py::arg("self_resolve") = r.ms.self_resolve, py::arg("body") = r.ms.body,
+                            py::arg("shared") = r.ms.shared);
+          },
+          "where the step's time went, in milliseconds of wall clock: total, by phase (solve, strain_limit, "
+          "self_search, self_resolve, body), and shared (in loops shared between threads; total - shared is what "
+          "more cores cannot shorten)")
       .def("__repr__", [](const StepReport& r) {
         return "StepReport(self_gathers=" + std::to_string(r.self_gathers) + ", self_pairs=" +
                std::to_string(r.self_pairs) + ", self_overloaded=" + (r.self_overloaded ? "True" : "False") +
@@ -157,21 +168,29 @@ void bind_scene(py::module_& m) {
   py::class_<Body, std::shared_ptr<Body>>(m, "Body", "A body (avatar) to drape on: metres, +Y up.")
       .def_static(
           "load",
-          [](const std::string& path, std::optional<std::string> up, std::optional<double> scale,
-             std::optional<double> height, bool recenter) {
+          [](const std::string& path, std::optional<std::string> up, std::optional<std::string> front,
+             std::optional<double> scale, std::optional<double> height, bool smooth, bool recenter) {
             BodyImportOptions o;
             if (up) o.up = parse_axis(*up);
+            // "auto": from the file, else the feet; None: as the file has it.
+            if (front && *front == "auto") o.find_front = true;
+            else if (front) o.front = parse_axis(*front);
             o.scale = scale;
             o.height = height;
+            o.smooth = smooth;
             o.recenter = recenter;
             py::gil_scoped_release nogil;
             return std::make_shared<Body>(Body::load(path, o));
           },
-          py::arg("path"), py::kw_only(), py::arg("up") = py::none(), py::arg("scale") = py::none(),
-          py::arg("height") = py::none(), py::arg("recenter") = true,
+          py::arg("path"), py::kw_only(), py::arg("up") = py::none(), py::arg("front") = "auto",
+          py::arg("scale") = py::none(), py::arg("height") = py::none(), py::arg("smooth") = true,
+          py::arg("recenter") = true,
           "Imports a body with assimp (OBJ, Collada/zae, FBX, glTF, ...): all meshes merged and welded,\n"
-          "brought to metres and +Y up. up ('x', '-z', ...) and scale (metres per file unit) correct a file\n"
-          "whose metadata is missing or wrong; height scales it to that many metres.")
+          "brought to metres and +Y up, and turned to face +Z. up ('x', '-z', ...), front (the file's axis\n"
+          "the body faces; 'auto': what the file says, else the way its feet point; None: as the file has\n"
+          "it) and scale (metres per file unit) correct a file whose metadata is missing or wrong; height\n"
+          "scales it to that many metres; smooth rounds a low-poly body (Loop subdivision to 1 cm triangles)\n"
+          "so that its points do not spike the cloth. body.report says where each came from.")
       .def_static(
           "default", [](std::optional<double> height) {
             BodyImportOptions o;
@@ -229,6 +248,9 @@ void bind_scene(py::module_& m) {
         d["up_source"] = r.up_source;
         d["scale_source"] = r.scale_source;
         d["up"] = axis_name(r.up);
+        d["front_source"] = r.front_source;
+        d["front"] = axis_name(r.front);
+        d["smoothing"] = r.smoothing;
         d["scale"] = r.scale;
         d["meshes_merged"] = r.meshes_merged;
         d["vertices_before_weld"] = r.vertices_before_weld;

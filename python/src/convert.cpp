@@ -13,6 +13,7 @@ namespace {
 PyObject* g_error = nullptr;
 PyObject* g_input_error = nullptr;
 PyObject* g_topology_error = nullptr;
+PyObject* g_simulation_error = nullptr;
 
 std::string shape_text(const py::array& a) {
   std::ostringstream s;
@@ -39,6 +40,9 @@ void bind_errors(py::module_& m) {
   g_topology_error = make("TopologyError", input_bases,
                           "A topology edit was refused because its result would not be a valid manifold mesh; "
                           "the garment is as it was.");
+  g_simulation_error = make("SimulationError", py::handle(g_error),
+                            "A step would have made the cloth non-finite (forces or pulls too large for the time "
+                            "step); it was undone and the garment is as it was.");
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
@@ -46,6 +50,8 @@ void bind_errors(py::module_& m) {
       PyErr_SetString(g_topology_error, e.what());
     } catch (const InputError& e) {
       PyErr_SetString(g_input_error, e.what());
+    } catch (const SimulationError& e) {
+      PyErr_SetString(g_simulation_error, e.what());
     } catch (const Error& e) {
       PyErr_SetString(g_error, e.what());
     }

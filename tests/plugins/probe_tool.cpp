@@ -1,14 +1,15 @@
 // "probe": a small tool for the loader tests. A stroke lifts the cloth vertex under the pointer by
 // `height` (down with direction = "down"); it declares one parameter of every type so the tests can
 // compare the generated metadata with the declarations. Compile definitions make the broken twins:
-// KIJI_TEST_OTHER_ABI or KIJI_TEST_OTHER_INTERFACE give a binary built for another Kiji.
+// KIJI_TEST_OTHER_ABI or KIJI_TEST_OTHER_INTERFACE give a binary built for another Kiji (and the
+// build with -mavx one whose Eigen members are laid out otherwise).
 #include "kiji/error.h"
 #include "kiji/session.h"
 #include "kiji/tool.h"
 
 #ifdef KIJI_TEST_OTHER_ABI  // as if built with another compiler, CGAL, Eigen and scalar type
 #undef KIJI_ABI_TAG
-#define KIJI_ABI_TAG "kiji0.1;gcc1;libstdc++0;cgal0.0;eigen0.0;float"
+#define KIJI_ABI_TAG "kiji=0.1;compiler=gcc1;stdlib=libstdc++0;cgal=0.0;eigen=0.0.0;scalar=float"
 #endif
 #ifdef KIJI_TEST_OTHER_INTERFACE  // as if built against a later tool interface
 #undef KIJI_TOOL_INTERFACE

@@ -60,7 +60,43 @@ def test_type_stubs_cover_the_api_and_every_tool():
     assert os.path.exists(os.path.join(os.path.dirname(kiji.__file__), "py.typed"))
 
 
-def test_stubgen_regenerates_the_stubs(tmp_path):
+def test_stubgen_regenerates_the_stubs_from_every_tools_declarations(tmp_path, probe_dir):
+    # As the stubgen's help says: run again with a third-party tool on KIJI_PLUGIN_PATH to add it.
     out = tmp_path / "kiji.pyi"
-    subprocess.run([sys.executable, "-m", "kiji.stubgen", str(out)], check=True, capture_output=True)
-    ast.parse(out.read_text())
+    env = dict(os.environ, KIJI_PLUGIN_PATH=probe_dir)
+    run = subprocess.run([sys.executable, "-m", "kiji.stubgen", str(out)], env=env, check=True, capture_output=True,
+                         text=True)
+    assert "(7 tools)" in run.stdout, run.stdout
+    tree = ast.parse(out.read_text())
+    classes = {n.name: n for n in tree.body if isinstance(n, ast.ClassDef)}
+    methods = {f.name: f for f in classes["Session"].body if isinstance(f, ast.FunctionDef)}
+
+    if "probe" not in kiji.registry().ids():
+        kiji.load_plugins(probe_dir)
+    infos = {t.id: t for t in kiji.tools()}
+    assert set(infos) == {"cut", "paint", "pin", "pinch", "sew", "tear", "probe"}
+    annotations = {"bool": "bool", "int": "int", "float": "float", "str": "str", "color": "float"}
+    for tool_id, info in infos.items():
+        method = methods[tool_id]
+        kwonly = method.args.kwonlyargs
+        declared = [p for p in info.parameters]
+        # Each declared parameter is a keyword argument after the stroke's own, in declaration order,
+        # with the declared default and a type that fits it.
+        by_name = {a.arg: (a, d) for a, d in zip(kwonly, method.args.kw_defaults)}
+        stub_names = [a.arg for a in kwonly if a.arg in {p.name for p in declared}]
+        assert stub_names == [p.name for p in declared], tool_id
+        for spec in declared:
+            arg, default = by_name[spec.name]
+            value = ast.literal_eval(default)
+            expected = tuple(spec.default) if spec.type == "color" else spec.default
+            assert value == expected and type(value) is type(expected), (tool_id, spec.name, value, spec.default)
+            annotation = ast.unparse(arg.annotation)
+            if spec.type == "choice":
+                assert annotation == "Literal[" + ", ".join(repr(c) for c in spec.choices) + "]", annotation
+            else:
+                assert annotations[spec.type] in annotation, (tool_id, spec.name, annotation)
+        assert ast.get_docstring(method) == info.description
+    # The installed stubs are the same generator's output without the third-party tool.
+    installed = open(os.path.join(os.path.dirname(kiji.__file__), "__init__.pyi"), encoding="utf-8").read()
+    installed_session = next(n for n in ast.parse(installed).body if isinstance(n, ast.ClassDef) and n.name == "Session")
+    assert {f.name for f in installed_session.body if isinstance(f, ast.FunctionDef)} == set(methods) - {"probe"}

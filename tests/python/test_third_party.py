@@ -1,5 +1,6 @@
 """A tool plugin from outside Kiji, found on KIJI_PLUGIN_PATH, becomes a method the same way."""
 import inspect
+import json
 import os
 import subprocess
 import sys
@@ -11,24 +12,35 @@ import kiji
 
 
 def test_a_plugin_on_kiji_plugin_path_appears_as_a_method(probe_dir):
+    # In a fresh interpreter, so that only KIJI_PLUGIN_PATH can have brought the probe in.
     env = dict(os.environ, KIJI_PLUGIN_PATH=probe_dir)
     code = (
-        "import inspect, numpy as np, kiji\n"
+        "import inspect, json, numpy as np, kiji\n"
         "sig = inspect.signature(kiji.Session.probe)\n"
-        "print(sorted(p for p in sig.parameters if sig.parameters[p].kind is inspect.Parameter.KEYWORD_ONLY\n"
-        "             and p in ('height', 'direction', 'repeat', 'fail', 'note', 'tint')))\n"
+        "kw = {n: p.default for n, p in sig.parameters.items() if p.kind is inspect.Parameter.KEYWORD_ONLY}\n"
         "s = kiji.Session()\n"
         "g = s.add_garment(kiji.rectangle(1, 1, nx=5, ny=5))\n"
         "s.simulating = False\n"
-        "y = g.positions[:, 1].max()\n"
+        "before = g.positions\n"
         "s.probe([(0.5, 0.5, 0.0)], height=0.1, repeat=2)\n"
-        "print(round(g.positions[:, 2].max() + g.positions[:, 1].max() - y, 6))\n"
-        "print(kiji.Session.probe.__doc__.splitlines()[0])\n")
+        "print(json.dumps({'kw': {k: kw[k] for k in ('height', 'direction', 'repeat', 'fail', 'note', 'tint')},\n"
+        "                  'before': before.tolist(), 'after': g.positions.tolist(),\n"
+        "                  'doc': kiji.Session.probe.__doc__.splitlines()[0]}))\n")
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
-    lines = out.stdout.splitlines()
-    assert lines[0] == "['direction', 'fail', 'height', 'note', 'repeat', 'tint']"
-    assert lines[2].startswith("Probe: Lifts the cloth vertex")
+    result = json.loads(out.stdout)
+    # The declared parameters, with their declared defaults, are the method's keyword arguments.
+    assert result["kw"] == {"height": 0.05, "direction": "up", "repeat": 1, "fail": False, "note": "",
+                            "tint": [1.0, 0.5, 0.25]}
+    assert result["doc"].startswith("Probe: Lifts the cloth vertex")
+    # Its effect: the vertex under the pointer, the middle of the 5 x 5 grid, rose by height x repeat
+    # = 0.2 m along +Y, and nothing else moved.
+    before, after = np.array(result["before"]), np.array(result["after"])
+    under = int(np.argmin(((before - (0.5, 0.5, 0.0)) ** 2).sum(axis=1)))
+    assert np.allclose(before[under], (0.5, 0.5, 0.0))
+    moved = np.flatnonzero(np.any(after != before, axis=1))
+    assert moved.tolist() == [under]
+    assert np.allclose(after[under] - before[under], (0.0, 0.2, 0.0), atol=1e-12)
 
 
 def test_load_plugins_at_run_time_adds_methods_and_errors_cross_the_boundary(probe_dir):

@@ -19,10 +19,23 @@ std::string axis_name(Axis axis);
 struct BodyImportOptions {
   // The file's up axis; when unset, the file's metadata (or +Y if it says nothing).
   std::optional<Axis> up;
+  // The way the body faces, as an axis of the file (not its up axis). The body is turned about its
+  // up axis to face +Z: towards the camera of a picture, and the side a drape calls the front.
+  std::optional<Axis> front;
+  // When `front` is unset: find it from what the file says (FBX's front axis; +Z for glTF, whose
+  // specification says so), else from the way the body's feet point; else leave the body as the
+  // file has it. Off by default, so that a file is read as it is; `kiji drape` and Python's
+  // Body.load turn it on.
+  bool find_front = false;
   // Metres per file unit; when unset, the file's metadata (or 1 if it says nothing).
   std::optional<double> scale;
   // Scale the body uniformly to this height in metres (overrides `scale`).
   std::optional<double> height;
+  // Round a low-poly body: Loop subdivision until its median edge is at most 1 % of its height (a
+  // game character's 7 cm triangles become 1 cm ones), for bodies of 100 triangles or more (a model,
+  // not a test solid). Cloth falls on its pointed crown or shoulder as on a rounded one instead of
+  // hanging on the point. Off by default; `kiji drape` and Python's Body.load turn it on.
+  bool smooth = false;
   // Put the feet on y = 0 and centre the body over the origin in x and z.
   bool recenter = true;
 };
@@ -32,8 +45,11 @@ struct BodyImportReport {
   std::string format;            // assimp's name for the importer
   std::string up_source;         // "file metadata", "option", "default (+Y)"
   std::string scale_source;      // "file metadata", "option", "height option", "default (metres)"
+  std::string front_source;      // "option", "file metadata", "glTF convention", "feet", "as the file has it"
   Axis up = Axis::PosY;
+  Axis front = Axis::PosZ;       // the file's axis the body faced
   double scale = 1.0;            // metres per file unit applied
+  int smoothing = 0;             // Loop subdivisions applied (0: none)
   std::size_t meshes_merged = 0;
   std::size_t vertices_before_weld = 0;
 };

@@ -26,7 +26,11 @@ class BodyCollider {
 
   const Body& body() const { return *body_; }
 
-  // Triangles whose bounding boxes overlap the box (Bullet's tree).
+  // Whether triangle t of the body has no area (three points on a line): such a triangle takes no
+  // part in collisions.
+  static bool degenerate(const Body& body, std::size_t t);
+
+  // Triangles whose bounding boxes overlap the box (Bullet's tree); never a degenerate one.
   void triangles_in_box(const Box3& box, std::vector<int>& out) const;
   // The closest body point to p within `radius`; hit = false if none is that close.
   BodyContact closest(const Vec3& p, double radius) const;

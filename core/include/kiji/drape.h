@@ -11,8 +11,8 @@
 namespace kiji {
 
 // Lays a flat pattern (in the z = 0 plane) horizontally over the body: its x along the body's
-// shoulders (x), its y from front to back (-z), centred over the body, `clearance` metres above the
-// highest point of the body under it.
+// shoulders (x), its y from front to back (-z), centred over the body's head and shoulders (its top
+// quarter), `clearance` metres above the highest point of the body under it.
 void place_over_body(Garment& garment, const Body& body, double clearance = 0.02);
 
 struct DrapeOptions {

@@ -26,4 +26,12 @@ class TopologyError : public Error {
   using Error::Error;
 };
 
+// A simulation step could not be taken: it would have left the cloth in a non-finite state (NaN or
+// infinity), under forces or pulls too large for its time step. The step was undone: the garment is
+// as it was before it, and the next step starts from there.
+class SimulationError : public Error {
+ public:
+  using Error::Error;
+};
+
 }  // namespace kiji

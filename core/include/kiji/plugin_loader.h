@@ -39,6 +39,8 @@ class ToolRegistry {
   // each candidate; refused ones say why. A tool id already registered is refused.
   std::vector<PluginReport> load_plugins(const std::vector<std::string>& folders = {});
   // Loads one plugin from its metadata file (NAME.json) or its library (the .json beside it).
+  // Whatever the files hold (a library that is not one, that returns no tool, that throws anything
+  // while making or describing it), the answer is a report, never a crash or an exception.
   PluginReport load_plugin(const std::string& path);
   // Registers a tool built into the host (tests, the app, a tool written in Python); `origin` is
   // what origin() says of it. Throws InputError if the id is taken.
@@ -51,13 +53,16 @@ class ToolRegistry {
   bool has(const std::string& id) const;
   std::vector<std::string> ids() const;  // sorted
   ToolInfo info(const std::string& id) const;
-  // A new instance of a tool; throws InputError naming the known tools if the id is unknown.
+  // A new instance of a tool; throws InputError naming the known tools if the id is unknown, and
+  // kiji::Error if the plugin cannot make one. A plugin's tool is given back to the plugin's own
+  // destroy, and what it throws that is not a std::exception reaches the caller as a kiji::Error.
   std::unique_ptr<Tool> create(const std::string& id) const;
   // Where a tool came from ("built in" or the library's path).
   std::string origin(const std::string& id) const;
 
  private:
   struct Library;
+  class PluginTool;
   struct Entry {
     ToolFactory factory;
     ToolInfo info;
@@ -66,6 +71,10 @@ class ToolRegistry {
   std::vector<std::shared_ptr<Library>> libraries_;
   std::map<std::string, Entry> tools_;
 };
+
+// Throws InputError if a tool's description would not work in every host: an id or a parameter
+// name that is not a Python identifier, no label, a parameter declared twice, a default out of range.
+void check_tool_info(const ToolInfo& info);
 
 // Metadata of a plugin library as JSON (what `kiji_add_tool` writes beside each library).
 std::string tool_metadata_json(const ToolInfo& info, const std::string& library_file);

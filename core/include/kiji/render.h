@@ -29,6 +29,12 @@ struct Camera {
 Image render(const std::vector<const Garment*>& garments, const Body* body, const Camera& camera,
              int width, int height);
 
+// Which of `points` a picture from `camera` shows: each is inside the picture, in front of the
+// camera, and no drawn surface lies more than `tolerance` metres nearer the camera along its pixel's
+// ray. A point on a surface the picture shows counts as seen; one behind a fold or the body does not.
+std::vector<bool> visible_points(const std::vector<const Garment*>& garments, const Body* body, const Camera& camera,
+                                 int width, int height, const std::vector<Vec3>& points, double tolerance = 0.005);
+
 // PNG files (libpng). write_png throws InputError if the file cannot be written; read_png if it
 // cannot be read or is not a PNG.
 void write_png(const Image& image, const std::string& path);

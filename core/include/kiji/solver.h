@@ -95,6 +95,21 @@ struct StepReport {
   // by the limit rather than by its stretch constraints (a soft cloth, few substeps, a crash into
   // the body or into itself): more substeps or iterations, or a stiffer cloth, leave it less to do.
   std::size_t strain_limited = 0;
+  // Where the step's time went: milliseconds of wall clock on the thread that called step(), by
+  // phase (the rest of `total` mirrors the mesh into the solver's arrays and back, and sleeps), and
+  // how much of it was in loops shared between threads: the part outside them (total - shared)
+  // is what more cores cannot shorten. Measured, so it varies from run to run where the counts
+  // above do not. The phases are the xpbd model's: the paper's mass-spring model gives only total
+  // and shared.
+  struct Times {
+    double total = 0;
+    double solve = 0;         // integration, hands, long-range limits, stretch, bending, seams
+    double strain_limit = 0;
+    double self_search = 0;   // gathering self-collision pairs
+    double self_resolve = 0;  // keeping them apart
+    double body = 0;          // body candidates, contacts, and vertices escaping their boxes
+    double shared = 0;
+  } ms;
 };
 
 class Solver {
@@ -138,7 +153,8 @@ class Solver {
 
   // Advances the garment by dt seconds (params.substeps substeps), writing positions and velocities
   // back to the mesh. Throws InputError for dt <= 0 or non-finite, or if the garment's state is not
-  // finite before the step.
+  // finite before the step. Never writes a non-finite state: a step that would (forces or pulls too
+  // large for the time step) is undone and throws SimulationError, the garment as it was.
   void step(Garment& garment, double dt);
 
   // Total spring force on every vertex by the paper's eq. 3 (MassSpring), indexed by vertex index.

@@ -13,6 +13,8 @@
 #include "kiji/tool_event.h"
 #include "kiji/version.h"
 
+#include <cstddef>
+#include <cstdio>
 #include <memory>
 #include <string>
 #include <vector>
@@ -60,24 +62,45 @@ class Tool {
   void run(Session& session, const ParamSet& params, const Stroke& stroke);
 };
 
-// The entry point a plugin library exports (see KIJI_TOOL_PLUGIN).
+// The entry point a plugin library exports (see KIJI_TOOL_PLUGIN). The host makes tools with
+// `create` and gives each back to the same library's `destroy`: the library that allocated a tool
+// frees it.
 struct ToolPluginEntry {
   const char* interface_id;  // KIJI_TOOL_INTERFACE the plugin was built against
-  const char* abi_tag;       // KIJI_ABI_TAG the plugin was built with
+  const char* abi_tag;       // KIJI_ABI_TAG the plugin was built with, and its layout field
   Tool* (*create)();
   void (*destroy)(Tool*);
 };
+
+namespace detail {
+
+constexpr std::size_t kAbiTagCapacity = 1024;
+
+// Writes `base` (KIJI_ABI_TAG) and the layout field: the size and alignment of the types that cross
+// the plugin boundary, as the compiler of the binary that includes this lays them out. `static`, so
+// that every binary (libkiji, each plugin) measures with its own copy, never borrowing the host's.
+static inline const char* write_abi_tag(char* out, std::size_t capacity, const char* base) {
+  std::snprintf(out, capacity, "%s;layout=ToolEvent:%zu/%zu,SurfaceHit:%zu/%zu,Feedback:%zu/%zu,Quaterniond:%zu/%zu,Vec2:%zu/%zu",
+                base, sizeof(ToolEvent), alignof(ToolEvent), sizeof(SurfaceHit), alignof(SurfaceHit),
+                sizeof(Feedback), alignof(Feedback), sizeof(Eigen::Quaterniond), alignof(Eigen::Quaterniond),
+                sizeof(Vec2), alignof(Vec2));
+  return out;
+}
+
+}  // namespace detail
 
 }  // namespace kiji
 
 #define KIJI_TOOL_PLUGIN_SYMBOL "kiji_tool_plugin_v1"
 
-// Exports the factory of ToolClass from a plugin library.
-#define KIJI_TOOL_PLUGIN(ToolClass)                                                            \
-  extern "C" __attribute__((visibility("default"))) const ::kiji::ToolPluginEntry*            \
-  kiji_tool_plugin_v1() {                                                                     \
-    static const ::kiji::ToolPluginEntry entry{                                               \
-        KIJI_TOOL_INTERFACE, KIJI_ABI_TAG, []() -> ::kiji::Tool* { return new ToolClass(); }, \
-        [](::kiji::Tool* tool) { delete tool; }};                                             \
-    return &entry;                                                                            \
+// Exports the factory of ToolClass from a plugin library, with the ABI tag as this plugin's
+// compiler sees it.
+#define KIJI_TOOL_PLUGIN(ToolClass)                                                                    \
+  extern "C" __attribute__((visibility("default"))) const ::kiji::ToolPluginEntry*                    \
+  kiji_tool_plugin_v1() {                                                                             \
+    static char abi[::kiji::detail::kAbiTagCapacity];                                                 \
+    static const ::kiji::ToolPluginEntry entry{                                                       \
+        KIJI_TOOL_INTERFACE, ::kiji::detail::write_abi_tag(abi, sizeof abi, KIJI_ABI_TAG),           \
+        []() -> ::kiji::Tool* { return new ToolClass(); }, [](::kiji::Tool* tool) { delete tool; }}; \
+    return &entry;                                                                                    \
   }

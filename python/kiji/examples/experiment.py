@@ -1,20 +1,19 @@
-"""The 2006 paper's experiment (its section 5, figures 8-9) as a Kiji design session.
+"""The 2006 paper's experiment (its section 5, figures 8-9): a tunic made in a Kiji design session.
 
 1. Drape: a rectangle of cotton is laid over the default body and falls on it under gravity.
-2. Cut away what is not needed: two cuts across the cloth, from border to border beside the crown
-   and stepping out around the head, and the piece between them (the cloth over the head) is removed:
-   the front and back panels are now two pieces.
-3. Sew: the front and back panels are sewn together over each shoulder (sew in 'seam' mode), leaving
-   the opening for the head: one piece, a tabard, which settles on the shoulders.
-4. Paint: letters are painted on the front (the paper painted JAPAN; here KIJI by default).
-Then the garment is written as .glb (with its painted texture) and a picture as .png.
+2. Cut: an opening for the head is cut around the crown and the cloth over the head is removed; the
+   cloth falls through the opening onto the shoulders, a front panel and a back panel.
+3. Sew: the front's sides are sewn to the back's, from the hem up to the armholes, pair of border
+   vertices by pair as a tailor sews a seam: one piece, a tunic with a neck opening and two armholes.
+4. Paint: letters on the chest (the paper painted JAPAN; here KIJI by default).
+
+It writes the garment (.glb, with its painted texture), a picture of it from the front, and the four
+stages side by side as the paper's figure 8 shows them, and prints the checks a designer makes.
 
     kiji run python/kiji/examples/experiment.py --out out/garment.glb --picture out/garment.png
-    python -m kiji.examples.experiment --spacing 0.04 --drape-seconds 1.5   # smaller and faster
+    python -m kiji.examples.experiment --spacing 0.03       # a coarser cloth, in a few seconds
 
-Every size is a parameter (see --help): the cloth, its spacing, the simulated seconds, the head
-opening, the text. The result is checked (one piece, resting on the body, letters in the texture)
-and printed; run_experiment() returns the same figures for tests.
+Every size is a parameter (see --help). run_experiment() returns the garment and its checks.
 """
 from __future__ import annotations
 
@@ -40,40 +39,57 @@ FONT = {
     "P": [[(0, 0), (0, 1), (0.7, 1), (0.9, 0.85), (0.9, 0.65), (0.7, 0.5), (0, 0.5)]],
 }
 
+STAGES = ("drape", "cut", "sew", "paint")
+
 
 @dataclass
 class Settings:
-    width: float = 0.9            # m, across the shoulders (pattern x -> world x)
-    length: float = 1.3           # m, front hem over the head to back hem (pattern y -> world -z)
-    spacing: float = 0.04         # m between vertices
+    width: float = 0.6            # m, across the shoulders (pattern x -> world x)
+    length: float = 1.44          # m, front hem over the shoulders to back hem (pattern y -> world -z)
+    spacing: float = 0.012        # m between vertices
     material: str = "cotton"
-    drape_seconds: float = 2.5
-    settle_seconds: float = 2.0
-    neck: float = 0.12            # m, half the width of the head opening
-    neck_depth: float = 0.11      # m, half its length along the pattern (front to back)
-    strip_rows: int = 2           # rows of faces cut away over the shoulders
+    drape_seconds: float = 1.2    # the cloth falls onto the head
+    fall_seconds: float = 1.2     # after the head opening is cut, it falls onto the shoulders
+    settle_seconds: float = 0.8   # after sewing
+    neck: float = 0.12            # m, half the width of the head opening (pattern x)
+    neck_depth: float = 0.11      # m, half its length (pattern y, front to back)
+    armhole: float = 0.30         # m of the pattern from the shoulder line down to the armhole's end
+    seam_start: float = 0.33      # where up the side seam the sewing starts, from the hem (0) to the armhole (1)
     text: str = "KIJI"
-    letter_height: float = 0.065  # m
-    text_drop: float = 0.20       # m down the front from the neckline to the top of the text
+    letter_height: float = 0.06   # m
+    text_drop: float = 0.07       # m down the front from the head opening to the top of the text
     color: tuple = (0.98, 0.92, 0.25)
-    brush: float = 0.008          # m, brush radius
-    texture: int = 512            # texels a side
-    frame_rate: float = 60.0
-    substeps: int = 10
+    brush: float = 0.006          # m, brush radius
+    texture: int = 1024           # texels a side
+    substeps: int = 40            # a step's substeps: the drape's, for cloth landing on the body
     out: Optional[str] = "out/garment.glb"
-    picture: Optional[str] = "out/garment.png"
-    picture_size: tuple = (1024, 768)
+    picture: Optional[str] = "out/garment.png"   # the tunic from the front
+    stages: Optional[str] = "out/stages.png"     # the four stages side by side
+    picture_size: tuple = (1024, 1024)
     verbose: bool = True
+
+
+@dataclass
+class Checks:
+    """What a designer checks on the finished garment."""
+    pieces: int
+    border_loops: dict            # "hem", "neck", "left armhole", "right armhole": vertices in each
+    contacts: int                 # cloth vertices touching the body
+    max_penetration: float        # m, deepest cloth vertex inside the body (0: none)
+    inside_fraction: float        # share of cloth vertices inside the body, by an independent test
+    max_strain: float             # largest edge stretch, as a fraction of its rest length
+    mean_strain: float
+    painted_texels: int
+    painted_seen: float           # share of the painted texels the front camera sees
+    hem_range: float              # m between the hem's highest and lowest point
+    asymmetry: float              # m, mean distance from the cloth's mirror image to the cloth
 
 
 @dataclass
 class Result:
     session: kiji.Session
     garment: kiji.Garment
-    pieces: int
-    measures: kiji.ClothMeasures
-    painted_texels: int
-    inside_fraction: float
+    checks: Checks
     timings: dict = field(default_factory=dict)
 
 
@@ -82,23 +98,8 @@ def _say(settings: Settings, text: str) -> None:
         print(text, flush=True)
 
 
-def _progress(settings: Settings, what: str):
-    if not settings.verbose:
-        return None
-    last = [-1]
-    live = sys.stdout.isatty()
-
-    def report(fraction: float) -> None:
-        tenth = int(fraction * 10)
-        if tenth != last[0] and (live or fraction >= 1):
-            last[0] = tenth
-            print(f"\r  {what}: {100 * fraction:3.0f} %", end="\n" if fraction >= 1 else "", flush=True)
-
-    return report
-
-
 def _letter_strokes(text: str, height: float) -> list[np.ndarray]:
-    """Polylines (metres, text-local: x right, y up, top-left at 0, 0) of the text, sampled every 5 mm."""
+    """Polylines (metres, text-local: x right, y up, top-centre at 0, 0) of the text, sampled every 3 mm."""
     strokes = []
     width = 0.75 * height
     gap = 0.35 * height
@@ -113,7 +114,7 @@ def _letter_strokes(text: str, height: float) -> list[np.ndarray]:
             pts = np.array([(x0 + width * x, height * (y - 1)) for x, y in line])
             dense = [pts[0]]
             for a, b in zip(pts[:-1], pts[1:]):
-                n = max(1, int(np.ceil(np.linalg.norm(b - a) / 0.005)))
+                n = max(1, int(np.ceil(np.linalg.norm(b - a) / 0.003)))
                 dense += [a + (b - a) * (k / n) for k in range(1, n + 1)]
             strokes.append(np.array(dense))
         x0 += width + gap
@@ -121,151 +122,322 @@ def _letter_strokes(text: str, height: float) -> list[np.ndarray]:
     return [s - np.array([total / 2, 0]) for s in strokes]
 
 
+class _Pattern:
+    """The flat pattern's grid: the vertex id at each column and row, kept through the edits."""
+
+    def __init__(self, garment: kiji.Garment):
+        flat = garment.positions
+        self.xs = np.unique(np.round(flat[:, 0], 9))
+        self.ys = np.unique(np.round(flat[:, 1], 9))
+        self.id = {}
+        for vid, p in zip(garment.vertex_ids, flat):
+            self.id[(int(np.argmin(abs(self.xs - p[0]))), int(np.argmin(abs(self.ys - p[1]))))] = int(vid)
+        self.nx, self.ny = len(self.xs), len(self.ys)
+
+
+def _positions_of(garment: kiji.Garment, ids) -> np.ndarray:
+    row = {int(v): i for i, v in enumerate(garment.vertex_ids)}
+    missing = [v for v in ids if v not in row]
+    if missing:
+        raise kiji.Error(f"experiment: vertices {missing[:5]} are gone from the garment")
+    return garment.positions[[row[v] for v in ids]]
+
+
+def _front_camera(body: kiji.Body, size: tuple) -> kiji.Camera:
+    """The front camera: the body from its knees up, from +Z (the way the body faces)."""
+    lo, hi = body.bounds
+    box = np.array([[lo[0], lo[1] + 0.3 * (hi[1] - lo[1]), lo[2]], [hi[0], hi[1] + 0.02, hi[2]]])
+    camera = kiji.Camera.framing(box)
+    # The camera fits the box's larger half-size to the vertical view; a picture narrower than tall
+    # shows less across, so the camera steps back until the box's width fits too.
+    half_w, half_h = 0.5 * (box[1, 0] - box[0, 0]), 0.5 * (box[1, 1] - box[0, 1])
+    aspect = size[0] / size[1]
+    wider = half_w / (aspect * max(half_w, half_h))
+    if wider > 1:
+        camera.eye = camera.target + (camera.eye - camera.target) * wider
+    return camera
+
+
+def _sew_pair(s: kiji.Session, g: kiji.Garment, front: int, back: int, *, first: bool, outward: np.ndarray,
+              spacing: float) -> None:
+    """Sews border vertex `front` to `back` with the needle (sew in 'pinch' mode). The first pair of a
+    seam is carried round the outside of the cloth over half a second to beside `back` (so that the
+    needle meets no other border on its way), the cloth following; then the pair is joined with the
+    cloth held still, so that `back` is where the needle ends: the first pair is tacked, a later one,
+    next to the seam's end, merged. Raises kiji.Error if the pair is not joined."""
+    if first:
+        a, b = _positions_of(g, [front, back])
+        detour = 2.5 * spacing * outward
+        legs = [(a, a + detour, 6), (a + detour, b + detour, 18)]
+        s.sew(np.vstack([a] + [p + (q - p) * (np.arange(1, n + 1)[:, None] / n) for p, q, n in legs]),
+              mode="pinch", distance=0.5 * spacing)
+    rows = {int(v): i for i, v in enumerate(g.vertex_ids)}
+    tacks = len(g.tacks)
+    a, b = _positions_of(g, [front, back])
+    s.simulating = False
+    try:
+        s.sew(np.vstack([a, b]), mode="pinch", distance=0.5 * spacing)
+    finally:
+        s.simulating = True
+    if front in set(int(v) for v in g.vertex_ids):
+        if not (len(g.tacks) > tacks and {rows[front], rows[back]} == set(g.tacks[-1].tolist())):
+            raise kiji.Error(f"experiment: the side seam did not close between border vertices {front} and "
+                             f"{back} ({np.linalg.norm(b - a) * 100:.1f} cm apart)")
+
+
+def _last_seam_row(st: Settings) -> int:
+    """The pattern row where the side seams end and the armholes begin."""
+    return int(np.floor((st.length / 2 - st.armhole) / st.spacing + 1e-9))
+
+
+def _check(st: Settings) -> None:
+    """Settings that cannot make a tunic are refused before anything is simulated, saying why."""
+    if not (st.spacing > 0 and st.width > 0 and st.length > 0):
+        raise kiji.InputError("experiment: the cloth's width, length and spacing must be positive")
+    if st.width / st.spacing * st.length / st.spacing > 2e6:
+        raise kiji.InputError("experiment: the cloth would have over 2 million vertices: give a larger spacing")
+    if not (0 < st.neck < st.width / 2 - 2 * st.spacing and 0 < st.neck_depth < st.length / 2 - 2 * st.spacing):
+        raise kiji.InputError("experiment: the head opening does not fit the cloth: make neck and neck_depth "
+                              "smaller, or the cloth larger")
+    if not 0 < st.armhole < st.length / 2 or _last_seam_row(st) < 2:
+        raise kiji.InputError("experiment: no side is left to sew below the armholes: make armhole smaller "
+                              "than half the cloth's length")
+    if st.armhole <= st.neck_depth:
+        raise kiji.InputError("experiment: the armholes would reach above the head opening: make armhole "
+                              "larger than neck_depth")
+    if not 0 <= st.seam_start <= 1:
+        raise kiji.InputError("experiment: seam_start is a share of the side seam, from 0 (hem) to 1 (armhole)")
+    _letter_strokes(st.text, st.letter_height)  # every letter in the font
+
+
 def run_experiment(settings: Settings = Settings()) -> Result:
     st = settings
+    _check(st)
     timings = {}
     t0 = time.perf_counter()
     body = kiji.Body.default()
-    s = kiji.Session(body=body, frame_rate=st.frame_rate)
+    s = kiji.Session(body=body)
     solver = s.solver_params
     solver.substeps = st.substeps
     s.solver_params = solver
     cloth = kiji.rectangle(st.width, st.length, spacing=st.spacing, material=kiji.Material(st.material),
-                           name="garment")
-    cloth.color = (0.75, 0.12, 0.15)
+                           name="tunic")
+    cloth.color = (0.72, 0.13, 0.16)
     g = s.add_garment(cloth)
-    # The grid of the flat pattern: column and row of every vertex, kept by vertex id.
-    flat = g.positions
-    xs, ys = np.unique(np.round(flat[:, 0], 9)), np.unique(np.round(flat[:, 1], 9))
-    nx, ny = len(xs), len(ys)
-    grid = {}
-    for vid, p in zip(g.vertex_ids, flat):
-        grid[(int(np.argmin(abs(xs - p[0]))), int(np.argmin(abs(ys - p[1]))))] = int(vid)
-    _say(st, f"kiji experiment: {g.vertex_count} vertices ({nx} x {ny}), {st.spacing * 100:g} cm apart, "
-             f"on {body.name} ({body.height:.2f} m)")
+    pattern = _Pattern(g)
+    nx, ny = pattern.nx, pattern.ny
+    _say(st, f"kiji experiment: a tunic from {g.vertex_count} vertices of {st.material} ({nx} x {ny}, "
+             f"{st.spacing * 100:g} cm apart) on {body.name} ({body.height:.2f} m)")
+    camera = _front_camera(body, st.picture_size)
+    stage_size = (400, 400)
+    stage_camera = _front_camera(body, stage_size)
+    stage_pictures = []
+
+    def stage_done(name: str) -> None:
+        timings[name] = time.perf_counter() - t0 - sum(timings.values())
+        if st.stages:
+            stage_pictures.append(s.render(camera=stage_camera, width=stage_size[0], height=stage_size[1]))
 
     # 1. Drape.
-    s.drape(seconds=st.drape_seconds, progress=_progress(st, "drape"))
-    timings["drape"] = time.perf_counter() - t0
+    s.drape(seconds=st.drape_seconds)
+    _say(st, f"  1. draped: {st.drape_seconds:g} s on the body")
+    stage_done("drape")
 
-    # 2. Cut away what is not needed: the cloth over the head. Each cut runs from border to border
-    #    along a row of the pattern beside the crown, stepping out around the head: a narrow strip
-    #    over the shoulders (so the seams there close a small gap) and an opening for the head.
-    s.simulating = False  # nothing falls while the scissors and the needle work
-    centre = st.width / 2
-    mid = ny // 2
-    front, back = mid - st.strip_rows // 2, mid - st.strip_rows // 2 + st.strip_rows
-    depth = max(st.strip_rows // 2 + 1, int(round(st.neck_depth / st.spacing)))
-    neck_front, neck_back = mid - depth, mid + depth
-    left = [c for c in range(nx) if xs[c] <= centre - st.neck]
-    right = [c for c in range(nx) if xs[c] >= centre + st.neck]
-    if len(left) < 2 or len(right) < 2:
-        raise kiji.InputError("experiment: the head opening (neck) is wider than the cloth")
-    if neck_front < 1 or neck_back > ny - 2:
-        raise kiji.InputError("experiment: the cloth is too short for the head opening")
-    cl, cr = left[-1], right[0]
+    # 2. Cut the head opening: an ellipse around the crown of the pattern, in two strokes (each from
+    #    one end of the other's cut), and take away the cloth over the head.
+    s.simulating = False  # nothing falls while the scissors work
+    centre_u, centre_v = st.width / 2, st.length / 2
+    scale = g.pattern_scale
 
-    def around_head(row: int, neck_row: int) -> list:
-        step = -1 if neck_row < row else 1
-        path = [(c, row) for c in range(0, cl + 1)]
-        path += [(cl, r) for r in range(row + step, neck_row + step, step)]
-        path += [(c, neck_row) for c in range(cl + 1, cr + 1)]
-        path += [(cr, r) for r in range(neck_row - step, row - step, -step)]
-        path += [(c, row) for c in range(cr + 1, nx)]
-        return path
+    def around_head(start: float, stop: float) -> np.ndarray:
+        angles = np.linspace(start, stop, max(16, int(np.pi * st.neck / st.spacing * 2)))
+        uv = np.c_[centre_u + st.neck * np.cos(angles), centre_v + st.neck_depth * np.sin(angles)] / scale
+        points, _ = point_at_uv(g, uv)
+        return points[~np.isnan(points).any(axis=1)]
 
-    def points_of(cells) -> np.ndarray:
-        at = {int(v): i for i, v in enumerate(g.vertex_ids)}
-        pos = g.positions
-        return np.array([pos[at[grid[cell]]] for cell in cells])
-
-    # Where the shoulder borders are, before the cuts split their vertices (nothing moves meanwhile).
-    front_shoulder = points_of([(c, front) for c in range(nx)])
-    back_shoulder = points_of([(c, back) for c in range(nx)])
-    crown = grid[(nx // 2, mid)]
-    s.cut(points_of(around_head(front, neck_front)))
-    s.cut(points_of(around_head(back, neck_back)))
-    if g.piece_count != 3:
-        raise kiji.Error(f"experiment: the two cuts made {g.piece_count} pieces, not 3")
+    crown = pattern.id[(nx // 2, ny // 2)]
+    s.cut(around_head(0, np.pi))
+    s.cut(around_head(np.pi, 2 * np.pi))
+    if g.piece_count != 2:
+        raise kiji.Error(f"experiment: the cut around the head made {g.piece_count} pieces, not 2")
     rows = {int(v): i for i, v in enumerate(g.vertex_ids)}
     g.remove_piece(int(np.nonzero((g.faces == rows[crown]).any(axis=1))[0][0]))
-    _say(st, f"  cut away the cloth over the head: {g.piece_count} pieces, front and back")
-
-    # 3. Sew the shoulders: trace the front's border (primary button), then the back's (secondary).
-    for cols in (left, right[::-1]):
-        a, b = front_shoulder[cols], back_shoulder[cols]
-        s.sew(np.vstack([a, b]), buttons=[1] * len(a) + [2] * len(b), mode="seam")
-    _say(st, f"  sewed the shoulders: {g.piece_count} piece(s), {len(g.border_loops())} border loops")
-    if g.piece_count != 1:
-        raise kiji.Error(f"experiment: after sewing the garment has {g.piece_count} pieces")
-
-    # Let it settle on the shoulders, the head through the opening.
     s.simulating = True
-    t1 = time.perf_counter()
-    s.simulate(st.settle_seconds, progress=_progress(st, "settle"))
-    timings["settle"] = time.perf_counter() - t1
+    s.simulate(st.fall_seconds)
+    _say(st, f"  2. cut the head opening and took away the cloth over the head: it fell onto the shoulders")
+    stage_done("cut")
 
-    # 4. Paint the letters on the front, below the neckline, centred.
+    # 3. Sew the sides, front border to back border, from the hem up to the armholes. A pair a third
+    #    of the way up is brought together first, slowly, and tacked; every next pair, up to the
+    #    armhole and then down to the hem, is a border vertex or two apart and is joined in one step:
+    #    the seam closes behind the needle as a zip does.
+    last_row = _last_seam_row(st)
+    start_row = round(st.seam_start * last_row)
+    order = list(range(start_row, last_row + 1)) + list(range(start_row - 1, -1, -1))
+    for row in order:
+        for column, outward in ((0, -1.0), (nx - 1, 1.0)):
+            _sew_pair(s, g, pattern.id[(column, row)], pattern.id[(column, ny - 1 - row)], first=row == start_row,
+                      outward=np.array([outward, 0.0, 0.0]), spacing=st.spacing)
+        s.step(1)  # the seam draws the next pair together
+    s.simulate(st.settle_seconds)
+    loops = g.border_loops()
+    _say(st, f"  3. sewed the sides from the hem up to the armholes: {g.piece_count} piece, "
+             f"{len(loops)} border loops")
+    if g.piece_count != 1:
+        raise kiji.Error(f"experiment: after sewing the garment is {g.piece_count} pieces, not one")
+    stage_done("sew")
+
+    # 4. Paint the letters on the chest, centred below the head opening.
     s.simulating = False
-    scale = g.pattern_scale
-    top = ys[front] - st.text_drop
+    top = centre_v - st.neck_depth - st.text_drop
     positions, faces, uvs = g.positions, g.faces, g.uvs
     strokes = 0
     for line in _letter_strokes(st.text, st.letter_height):
-        uv = (line + np.array([centre, top])) / scale
+        uv = (line + np.array([centre_u, top])) / scale
         points, normals = point_at_uv(g, uv, positions=positions, faces=faces, uvs=uvs)
         ok = ~np.isnan(points).any(axis=1)
         if ok.sum() < 2:
             continue
-        # The pen just off the outer side of the cloth (the side facing away from the body's axis).
-        outward = np.sign(((points[ok] - [0, 0, 0]) * normals[ok])[:, [0, 2]].sum(axis=1, keepdims=True))
+        # The pen just off the outer side of the cloth, the side facing away from the body's axis.
+        axis = np.array([0.0, 0.0, body_axis_z(body)])
+        outward = np.sign((((points[ok] - axis) * normals[ok])[:, [0, 2]]).sum(axis=1, keepdims=True))
         pen = points[ok] + 0.001 * outward * normals[ok]
         s.paint(pen, color=st.color, radius=st.brush, resolution=st.texture, touch_distance=0.01, hardness=0.9)
         strokes += 1
     s.simulating = True
-    s.simulate(0.25)
-    tex = g.texture
-    painted = 0
-    if tex is not None:
-        painted = int((np.abs(tex[..., :3].astype(int) - np.array(st.color) * 255).max(axis=2) <= 2).sum())
-    _say(st, f"  painted '{st.text}' in {strokes} strokes: {painted} texels")
-
-    m = s.measure()
-    inside = _inside_fraction(body, g.positions)
+    s.simulate(0.2)
+    _say(st, f"  4. painted '{st.text}' on the chest in {strokes} strokes")
+    stage_done("paint")
     timings["total"] = time.perf_counter() - t0
+
+    checks = check_garment(s, g, st, camera)
+    _report(st, checks, timings)
     if st.out:
         os.makedirs(os.path.dirname(os.path.abspath(st.out)), exist_ok=True)
         g.export(st.out)
     if st.picture:
         os.makedirs(os.path.dirname(os.path.abspath(st.picture)), exist_ok=True)
-        box = np.vstack([body.bounds, g.bounds])
-        box = np.array([box.min(axis=0), box.max(axis=0)])
-        s.save_picture(st.picture, width=st.picture_size[0], height=st.picture_size[1],
-                       camera=kiji.Camera.framing(box))
-    _say(st, f"  {g.piece_count} piece, {m.contacts} vertices touching the body, deepest "
-             f"{1000 * m.max_penetration:.1f} mm inside (cloth {1000 * g.material.thickness:.0f} mm thick), "
-             f"max strain {100 * m.max_strain:.0f} %")
-    _say(st, f"  {timings['total']:.1f} s in all (drape {timings['drape']:.1f} s, settle {timings['settle']:.1f} s)")
-    if st.out or st.picture:
-        _say(st, "wrote " + " and ".join(p for p in (st.out, st.picture) if p))
-    return Result(s, g, g.piece_count, m, painted, inside, timings)
+        s.save_picture(st.picture, width=st.picture_size[0], height=st.picture_size[1], camera=camera)
+    if st.stages and stage_pictures:
+        os.makedirs(os.path.dirname(os.path.abspath(st.stages)), exist_ok=True)
+        kiji.write_png(np.concatenate(stage_pictures, axis=1), st.stages)
+    written = [p for p in (st.out, st.picture, st.stages) if p]
+    if written:
+        _say(st, "wrote " + ", ".join(written))
+    return Result(s, g, checks, timings)
 
 
-def _inside_fraction(body: kiji.Body, points: np.ndarray) -> float:
-    """Fraction of cloth vertices inside the body's closed-ish surface, by the side of the nearest
-    body vertex's area-weighted normal (rough but independent of the solver's own measure)."""
+def body_axis_z(body: kiji.Body) -> float:
+    """The z of the body's vertical axis through its trunk (the middle of its top quarter)."""
+    v = body.vertices
+    lo, hi = body.bounds
+    top = v[v[:, 1] >= hi[1] - 0.25 * (hi[1] - lo[1])]
+    return 0.5 * (top[:, 2].min() + top[:, 2].max())
+
+
+def painted_mask(garment: kiji.Garment, color) -> np.ndarray:
+    """(H, W) bool: the texels of the garment's texture that carry the paint's colour."""
+    tex = garment.texture
+    if tex is None:
+        return np.zeros((0, 0), bool)
+    return np.abs(tex[..., :3].astype(int) - np.round(np.array(color) * 255)).max(axis=2) <= 2
+
+
+def check_garment(s: kiji.Session, g: kiji.Garment, st: Settings, camera: kiji.Camera) -> Checks:
+    body = s.body
+    m = s.measure()
+    positions = g.positions
+    # Border loops, named by where they are: the lowest is the hem, the highest the neck opening,
+    # the others the armholes, left (-x) and right (+x).
+    loops = [positions[np.array(loop)] for loop in g.border_loops()]
+    named = {}
+    if loops:
+        by_height = sorted(range(len(loops)), key=lambda i: loops[i][:, 1].mean())
+        named["hem"] = by_height[0]
+        if len(loops) > 1:
+            named["neck"] = by_height[-1]
+        for k, i in enumerate(by_height[1:-1]):
+            side = "left armhole" if loops[i][:, 0].mean() < 0 else "right armhole"
+            named[side if side not in named else f"{side} {k}"] = i
+    border_loops = {name: len(loops[i]) for name, i in named.items()}
+    hem = loops[named["hem"]] if loops else np.zeros((1, 3))
+    # Painted texels, and which of them the front camera sees.
+    mask = painted_mask(g, st.color)
+    painted = int(mask.sum())
+    seen = 0.0
+    if painted:
+        rows, cols = np.nonzero(mask)
+        pick = np.random.default_rng(1).choice(painted, size=min(painted, 1500), replace=False)
+        h, w = mask.shape
+        uv = np.c_[(cols[pick] + 0.5) / w, (rows[pick] + 0.5) / h]
+        points, _ = point_at_uv(g, uv, positions=positions)
+        points = points[~np.isnan(points).any(axis=1)]
+        if len(points):
+            visible = kiji.visible_points(points, [g], body, camera=camera, width=st.picture_size[0],
+                                          height=st.picture_size[1], tolerance=0.003)
+            seen = float(visible.mean())
+    return Checks(pieces=g.piece_count, border_loops=border_loops, contacts=m.contacts,
+                  max_penetration=m.max_penetration, inside_fraction=inside_fraction(body, positions),
+                  max_strain=m.max_strain, mean_strain=m.mean_strain, painted_texels=painted,
+                  painted_seen=seen, hem_range=float(np.ptp(hem[:, 1])),
+                  asymmetry=mirror_distance(positions))
+
+
+def _bands(points: np.ndarray, size: int = 256):
+    """The points in bands of `size` by height: each band's indices, lowest band first."""
+    order = np.argsort(points[:, 1], kind="stable")
+    for start in range(0, len(order), size):
+        yield order[start:start + size]
+
+
+def mirror_distance(points: np.ndarray, reach: float = 0.05) -> float:
+    """Mean distance from each point's mirror image across x = 0 to the nearest point (at most
+    `reach`): 0 for a garment symmetric left to right."""
+    mirrored = points * np.array([-1.0, 1.0, 1.0])
+    best = np.full(len(points), reach)
+    for band in _bands(mirrored):
+        lo, hi = mirrored[band, 1].min() - reach, mirrored[band, 1].max() + reach
+        near = points[(points[:, 1] >= lo) & (points[:, 1] <= hi)]
+        d = ((mirrored[band, None, :] - near[None, :, :]) ** 2).sum(axis=2)
+        best[band] = np.minimum(np.sqrt(d.min(axis=1)), reach)
+    return float(best.mean())
+
+
+def inside_fraction(body: kiji.Body, points: np.ndarray, reach: float = 0.03) -> float:
+    """Share of cloth vertices inside the body, by the side of the nearest body vertex's
+    area-weighted normal (within `reach`): a test independent of the solver's own measure."""
     bv, bt = body.vertices, body.triangles
     fn = np.cross(bv[bt[:, 1]] - bv[bt[:, 0]], bv[bt[:, 2]] - bv[bt[:, 0]])
     vn = np.zeros_like(bv)
     for k in range(3):
         np.add.at(vn, bt[:, k], fn)
     inside = 0
-    for p in points:
-        d = ((bv - p) ** 2).sum(axis=1)
-        i = int(np.argmin(d))
-        if d[i] < 0.03 ** 2 and np.dot(p - bv[i], vn[i]) < -1e-4 * np.linalg.norm(vn[i]):
-            inside += 1
+    for band in _bands(points):
+        chunk = points[band]
+        lo, hi = chunk[:, 1].min() - reach, chunk[:, 1].max() + reach
+        near = np.nonzero((bv[:, 1] >= lo) & (bv[:, 1] <= hi))[0]
+        if not len(near):
+            continue
+        d = ((chunk[:, None, :] - bv[None, near, :]) ** 2).sum(axis=2)
+        j = d.argmin(axis=1)
+        i = near[j]
+        close = d[np.arange(len(chunk)), j] < reach ** 2
+        behind = ((chunk - bv[i]) * vn[i]).sum(axis=1) < -1e-4 * np.linalg.norm(vn[i], axis=1)
+        inside += int((close & behind).sum())
     return inside / max(1, len(points))
+
+
+def _report(st: Settings, c: Checks, timings: dict) -> None:
+    loops = ", ".join(f"{name} ({n})" for name, n in c.border_loops.items())
+    _say(st, f"checks: {c.pieces} piece; {len(c.border_loops)} border loops: {loops}")
+    _say(st, f"        {c.contacts} vertices touching the body; deepest {1000 * c.max_penetration:.1f} mm inside, "
+             f"{100 * c.inside_fraction:.1f} % of the cloth inside")
+    _say(st, f"        largest edge strain {100 * c.max_strain:.1f} % (mean {100 * c.mean_strain:.2f} %)")
+    _say(st, f"        hem level within {100 * c.hem_range:.1f} cm; left and right mirror each other within "
+             f"{100 * c.asymmetry:.1f} cm on average")
+    _say(st, f"        {c.painted_texels} painted texels, {100 * c.painted_seen:.0f} % of them seen from the front")
+    stages = ", ".join(f"{name} {timings[name]:.1f} s" for name in STAGES if name in timings)
+    _say(st, f"        {timings['total']:.1f} s in all ({stages})")
 
 
 def main(argv: Optional[list[str]] = None) -> int:
@@ -276,24 +448,29 @@ def main(argv: Optional[list[str]] = None) -> int:
     ap.add_argument("--spacing", type=float, default=d.spacing, help="vertex spacing, m (default %(default)s)")
     ap.add_argument("--material", default=d.material, help="cotton, silk, denim, rubber or tissue")
     ap.add_argument("--drape-seconds", type=float, default=d.drape_seconds)
+    ap.add_argument("--fall-seconds", type=float, default=d.fall_seconds)
     ap.add_argument("--settle-seconds", type=float, default=d.settle_seconds)
     ap.add_argument("--neck", type=float, default=d.neck, help="half width of the head opening, m")
     ap.add_argument("--neck-depth", type=float, default=d.neck_depth, help="half length of the head opening, m")
+    ap.add_argument("--armhole", type=float, default=d.armhole,
+                    help="pattern length from the shoulder line down to the end of the armhole, m")
     ap.add_argument("--text", default=d.text, help=f"letters to paint (of {''.join(sorted(FONT))} and space)")
     ap.add_argument("--texture", type=int, default=d.texture, help="texture size, texels a side")
     ap.add_argument("--substeps", type=int, default=d.substeps)
     ap.add_argument("--out", default=d.out, help="garment file, .glb or .obj (default %(default)s)")
-    ap.add_argument("--picture", default=d.picture, help="PNG picture (default %(default)s)")
+    ap.add_argument("--picture", default=d.picture, help="PNG of the tunic from the front (default %(default)s)")
+    ap.add_argument("--stages", default=d.stages, help="PNG of the four stages side by side (default %(default)s)")
     ap.add_argument("--quiet", action="store_true")
     a = ap.parse_args(argv)
     settings = Settings(width=a.width, length=a.length, spacing=a.spacing, material=a.material,
-                        drape_seconds=a.drape_seconds, settle_seconds=a.settle_seconds, neck=a.neck,
-                        neck_depth=a.neck_depth, text=a.text,
-                        texture=a.texture, substeps=a.substeps, out=a.out, picture=a.picture, verbose=not a.quiet)
+                        drape_seconds=a.drape_seconds, fall_seconds=a.fall_seconds,
+                        settle_seconds=a.settle_seconds, neck=a.neck, neck_depth=a.neck_depth,
+                        armhole=a.armhole, text=a.text, texture=a.texture, substeps=a.substeps, out=a.out,
+                        picture=a.picture, stages=a.stages, verbose=not a.quiet)
     try:
         run_experiment(settings)
     except kiji.Error as e:
-        print(f"experiment: {e}", file=sys.stderr)
+        print(e if str(e).startswith("experiment:") else f"experiment: {e}", file=sys.stderr)
         return 1
     return 0
 

@@ -1,0 +1,77 @@
+// Kiji Studio's window: the viewport in the middle, the tools and their parameters on the left, the
+// Python console below, the menus (File, Edit, View, Simulation, Device, Help) and a status bar
+// with the simulation's steps a second, the frames a second, the haptic loop's rate, the vertices
+// and the active tool.
+#pragma once
+
+#include "studio.h"
+#include "viewport.h"
+
+#include <QMainWindow>
+
+class QAction;
+class QActionGroup;
+class QDockWidget;
+class QLabel;
+
+namespace kiji::studio {
+
+class PythonConsole;
+class ToolPanel;
+
+class MainWindow : public QMainWindow {
+  Q_OBJECT
+ public:
+  explicit MainWindow(Studio& studio, QWidget* parent = nullptr);
+  ~MainWindow() override;
+
+  Viewport& viewport() { return *viewport_; }
+  ToolPanel& tool_panel() { return *tools_; }
+  PythonConsole& console() { return *console_; }
+  // The messages shown so far, errors among them (for tests and for the scripted runs' exit code).
+  const QStringList& errors() const { return errors_; }
+  QString status_text() const;
+  // The viewport as a picture (what File > Save picture writes).
+  bool save_picture(const QString& path);
+  // The whole window, the view in it.
+  QImage grab_window();
+  void set_edge_display(EdgeDisplay mode);
+
+ protected:
+  void closeEvent(QCloseEvent* e) override;
+
+ private:
+  void build_menus();
+  void update_status();
+  void on_message(const QString& text, bool error);
+  void open_body_dialog();
+  void new_garment_dialog();
+  void phantom_settings_dialog();
+  void sync_device_menu();
+
+  Studio& studio_;
+  Viewport* viewport_;
+  ToolPanel* tools_;
+  PythonConsole* console_;
+  QDockWidget* tools_dock_;
+  QDockWidget* console_dock_;
+  QLabel* status_sim_;
+  QLabel* status_fps_;
+  QLabel* status_haptic_;
+  QLabel* status_vertices_;
+  QLabel* status_tool_;
+  QAction* run_action_;
+  QAction* undo_action_;
+  QAction* redo_action_;
+  QActionGroup* edges_group_;
+  QActionGroup* device_group_;
+  QAction* device_none_;
+  QAction* device_mouse_;
+  QAction* device_phantom_;
+  PhantomOptions phantom_options_;
+  QStringList errors_;
+  std::uint64_t last_haptic_ticks_ = 0;
+  qint64 last_haptic_time_ = 0;
+};
+
+}  // namespace kiji::studio

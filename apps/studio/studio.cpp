@@ -1,0 +1,359 @@
+#include "studio.h"
+
+#include "kiji/io.h"
+#include "kiji/journal_file.h"
+#include "kiji/session.h"
+#include "kiji/session_file.h"
+
+#include <QFileInfo>
+
+namespace kiji::studio {
+
+QString device_kind_name(DeviceKind kind) {
+  switch (kind) {
+    case DeviceKind::None: return "none";
+    case DeviceKind::Mouse: return "mouse";
+    case DeviceKind::Phantom: return "phantom";
+  }
+  return "none";
+}
+
+Studio::Studio(std::shared_ptr<ToolRegistry> tools, QObject* parent) : QObject(parent), tools_(std::move(tools)) {
+  session_ = std::make_shared<Session>(tools_);
+  start_loop();
+  connect(&poll_timer_, &QTimer::timeout, this, &Studio::poll);
+  poll_timer_.start(100);
+}
+
+Studio::~Studio() {
+  poll_timer_.stop();
+  cancel_drape_ = true;
+  loop_->attach(nullptr);
+  stop_device();
+  loop_->stop();
+}
+
+bool Studio::fail(const QString& what, const std::exception& e) {
+  emit message(what + ": " + QString::fromStdString(e.what()), true);
+  return false;
+}
+
+void Studio::start_loop() {
+  loop_ = std::make_unique<SimulationLoop>(session_, 60);
+  loop_->set_stepping(clock_running_);
+  if (!primary_.id.empty()) loop_->set_tool(kButtonPrimary, primary_.id, primary_.params);
+  if (!secondary_.id.empty()) loop_->set_tool(kButtonSecondary, secondary_.id, secondary_.params);
+  loop_->start();
+  loop_->attach(haptics_.get());
+}
+
+void Studio::replace_session(std::shared_ptr<Session> session) {
+  cancel_drape_ = true;
+  loop_->attach(nullptr);  // the haptic loop lets go of the old session's tools
+  loop_->stop();
+  loop_.reset();
+  session_ = std::move(session);
+  cancel_drape_ = false;
+  start_loop();
+  emit session_replaced();
+  emit scene_changed();
+}
+
+void Studio::new_scene() {
+  replace_session(std::make_shared<Session>(tools_));
+  emit message("New scene", false);
+}
+
+bool Studio::open_body(const QString& path, const BodyImportOptions& options) {
+  const std::string file = QFileInfo(path).absoluteFilePath().toStdString();
+  std::optional<Body> body;
+  try {
+    body = Body::load(file, options);  // seconds for a large file: outside the session's lock
+  } catch (const std::exception& e) {
+    return fail("The body was not opened", e);
+  }
+  try {
+    loop_->call([&](Session& s) {
+      s.set_body(*body);
+      // Garments not yet touched are laid over the new body.
+      if (!has_strokes(s) && !s.stroke_active()) lay_over_body(s);
+    });
+  } catch (const std::exception& e) {
+    return fail("The body was not set", e);
+  }
+  emit message(QString("Body %1: %2 triangles, %3 m tall (%4)")
+                   .arg(QFileInfo(path).fileName())
+                   .arg(body->triangles().size())
+                   .arg(body->height(), 0, 'f', 2)
+                   .arg(QString::fromStdString(body->report().format)),
+               false);
+  emit scene_changed();
+  return true;
+}
+
+bool Studio::add_garment(const GarmentSpec& spec) {
+  try {
+    loop_->call([&](Session& s) { studio::add_garment(s, spec); });
+  } catch (const std::exception& e) {
+    return fail("The garment was not made", e);
+  }
+  emit message(QString("New garment: %1").arg(QString::fromStdString(spec.describe())), false);
+  emit scene_changed();
+  return true;
+}
+
+bool Studio::open_session(const QString& path) {
+  auto session = std::make_shared<Session>(tools_);
+  std::size_t operations = 0;
+  try {
+    SessionFileReport report;
+    const std::vector<Operation> ops = load_session(path.toStdString(), &report);
+    std::lock_guard<std::recursive_mutex> lock(session->mutex());
+    operations = kiji::replay(*session, ops);
+    if (!report.damage.empty())
+      emit message(QString("%1 was damaged at its end (%2): the %3 operations before it were opened")
+                       .arg(path, QString::fromStdString(report.damage))
+                       .arg(operations),
+                   true);
+  } catch (const std::exception& e) {
+    return fail("The session was not opened (the one open is as it was)", e);
+  }
+  replace_session(std::move(session));
+  emit message(QString("Opened %1: %2 operations replayed").arg(QFileInfo(path).fileName()).arg(operations), false);
+  return true;
+}
+
+bool Studio::save_session(const QString& path) {
+  try {
+    loop_->call([&](Session& s) { kiji::save_session(s, path.toStdString()); });
+  } catch (const std::exception& e) {
+    return fail("The session was not saved", e);
+  }
+  emit message("Saved " + path, false);
+  return true;
+}
+
+bool Studio::export_garment(const QString& path, int garment) {
+  try {
+    loop_->call([&](Session& s) { kiji::export_garment(s.garment(static_cast<std::size_t>(garment)), path.toStdString()); });
+  } catch (const std::exception& e) {
+    return fail("The garment was not exported", e);
+  }
+  emit message("Exported " + path, false);
+  return true;
+}
+
+bool Studio::replay(const QString& journal) {
+  try {
+    std::size_t done = 0;
+    loop_->call([&](Session& s) { done = kiji::replay_file(s, journal.toStdString()); });
+    emit message(QString("Replayed %1 from %2").arg(done).arg(journal), false);
+  } catch (const std::exception& e) {
+    return fail("The journal was not replayed (what came before the failing entry stays)", e);
+  }
+  return true;
+}
+
+bool Studio::save_journal(const QString& path) {
+  try {
+    loop_->call([&](Session& s) { kiji::save_journal(s, path.toStdString()); });
+  } catch (const std::exception& e) {
+    return fail("The journal was not saved", e);
+  }
+  emit message("Saved the journal to " + path, false);
+  return true;
+}
+
+void Studio::undo() {
+  loop_->post([this](Session& s) {
+    if (!s.undo()) QMetaObject::invokeMethod(this, [this] { emit message("Nothing to undo", false); });
+  }, "undo");
+}
+
+void Studio::redo() {
+  loop_->post([this](Session& s) {
+    if (!s.redo()) QMetaObject::invokeMethod(this, [this] { emit message("Nothing to redo", false); });
+  }, "redo");
+}
+
+void Studio::set_simulating(bool on) {
+  loop_->post([on](Session& s) { s.set_simulating(on); }, on ? "run" : "pause");
+}
+
+bool Studio::simulating() const {
+  const auto f = loop_->frame();
+  return f ? f->simulating : true;
+}
+
+void Studio::drape(double seconds) {
+  if (draping_.exchange(true)) return;
+  cancel_drape_ = false;
+  SimulationLoop* loop = loop_.get();
+  loop->post([this, loop, seconds](Session& s) {
+    struct Done {
+      std::atomic<bool>& flag;
+      ~Done() { flag = false; }
+    } done{draping_};
+    const double start = s.time();
+    long step = 0;
+    drape_session(s, seconds, [&](double) {
+      if (++step % 6 == 0) loop->publish_now();
+      return !cancel_drape_.load() && !loop->stop_requested();
+    });
+    const double simulated = s.time() - start;
+    QMetaObject::invokeMethod(this, [this, simulated] {
+      emit message(QString("Draped for %1 s of simulated time").arg(simulated, 0, 'f', 2), false);
+    });
+  }, "drape");
+}
+
+bool Studio::reset() {
+  auto session = std::make_shared<Session>(tools_);
+  try {
+    std::vector<Operation> setup;
+    loop_->call([&](Session& s) {
+      for (const Operation& op : s.journal().operations()) {
+        if (std::holds_alternative<op::ToolInput>(op.data)) break;
+        setup.push_back(op);
+      }
+    });
+    std::lock_guard<std::recursive_mutex> lock(session->mutex());
+    kiji::replay(*session, setup);
+  } catch (const std::exception& e) {
+    return fail("The scene was not reset", e);
+  }
+  replace_session(std::move(session));
+  emit message("Reset: the scene as it was before the first stroke", false);
+  return true;
+}
+
+void Studio::set_clock_running(bool on) {
+  clock_running_ = on;
+  loop_->set_stepping(on);
+}
+
+void Studio::set_tool(std::uint32_t button, const std::string& id, const ParamSet& params) {
+  (button == kButtonSecondary ? secondary_ : primary_) = ToolChoice{id, params};
+  loop_->set_tool(button, id, params);
+}
+
+void Studio::stop_device() {
+  if (haptics_) haptics_->stop();
+  haptics_.reset();
+  phantom_.reset();  // stops its servo loop and disables it, in the vendor's order
+  mouse_.reset();
+}
+
+bool Studio::use_device(DeviceKind kind, const PhantomOptions& options) {
+  loop_->attach(nullptr);
+  stop_device();
+  kind_ = DeviceKind::None;
+  reported_haptic_errors_ = 0;
+  reported_servo_stop_ = false;
+  bool ok = true;
+  if (kind == DeviceKind::Phantom) {
+    try {
+      phantom_ = std::make_unique<PhantomDevice>(options);
+      const auto f = loop_->frame();
+      Box3 around = f ? f->bounds() : Box3();
+      if (around.isEmpty()) around = Box3(Vec3(-0.5, 0.5, -0.5), Vec3(0.5, 1.5, 0.5));
+      phantom_->set_mapping(WorkspaceMapping::fit(phantom_->workspace(), around));
+      haptics_ = std::make_unique<HapticLoop>(*phantom_, haptic_options_);
+      haptics_->start();
+      kind_ = DeviceKind::Phantom;
+      const PhantomInfo& i = phantom_->info();
+      emit message(QString("Phantom: %1 from %2 (calibration %3, %4 N continuous)")
+                       .arg(QString::fromStdString(i.model), QString::fromStdString(i.library),
+                            QString::fromStdString(i.calibration))
+                       .arg(i.max_continuous_force),
+                   false);
+    } catch (const std::exception& e) {
+      haptics_.reset();
+      phantom_.reset();
+      emit message("The Phantom is not available, the mouse is used instead: " + QString::fromStdString(e.what()), true);
+      kind = DeviceKind::Mouse;
+      ok = false;
+    }
+  }
+  if (kind == DeviceKind::Mouse) {
+    mouse_ = std::make_unique<MouseDevice>();
+    haptics_ = std::make_unique<HapticLoop>(*mouse_, haptic_options_);
+    haptics_->start();
+    kind_ = DeviceKind::Mouse;
+  }
+  loop_->attach(haptics_.get());
+  emit device_changed();
+  return ok;
+}
+
+void Studio::set_force_gain(double gain) {
+  HapticOptions o = haptic_options_;
+  o.force_gain = gain;
+  try {
+    o.validate();
+  } catch (const std::exception& e) {
+    fail("The force gain was not changed", e);
+    return;
+  }
+  haptic_options_ = o;
+  if (haptics_) haptics_->set_force_gain(gain);
+}
+
+bool Studio::fit_workspace(bool to_body, const Eigen::Quaterniond& camera) {
+  if (!phantom_) {
+    emit message("No Phantom is in use: choose it in the Device menu first", true);
+    return false;
+  }
+  const auto f = loop_->frame();
+  Box3 target;
+  if (f && to_body && f->body) target = f->body->bounds();
+  if (f && !to_body)
+    for (const GarmentFrame& g : f->garments) target.extend(g.bounds);
+  try {
+    const WorkspaceMapping m = WorkspaceMapping::fit(phantom_->workspace(), target, camera);
+    phantom_->set_mapping(m);
+    emit message(QString("The Phantom's workspace spans the %1: %2 world metres a device metre")
+                     .arg(to_body ? "body" : "garments")
+                     .arg(m.scale, 0, 'f', 2),
+                 false);
+  } catch (const std::exception& e) {
+    return fail("The workspace was not fitted", e);
+  }
+  return true;
+}
+
+QString Studio::device_description() const {
+  switch (kind_) {
+    case DeviceKind::None: return "no device";
+    case DeviceKind::Mouse: return "mouse";
+    case DeviceKind::Phantom: return QString::fromStdString(phantom_->name());
+  }
+  return {};
+}
+
+void Studio::poll() {
+  for (const std::string& m : loop_->take_messages()) emit message(QString::fromStdString(m), true);
+  if (haptics_) {
+    const HapticStats st = haptics_->stats();
+    const std::size_t errors = st.tool_errors + st.device_errors;
+    if (errors > reported_haptic_errors_) {
+      emit message(QString("The haptic loop sent zero force %1 times: %2")
+                       .arg(errors - reported_haptic_errors_)
+                       .arg(QString::fromStdString(st.last_error)),
+                   true);
+      reported_haptic_errors_ = errors;
+    }
+  }
+  if (phantom_ && !reported_servo_stop_) {
+    const PhantomStatus st = phantom_->status();
+    if (st.servo_stopped_by_error) {
+      reported_servo_stop_ = true;
+      const QString why = QString::fromStdString(st.last_error_text);
+      // Back to the mouse, with the reason said.
+      use_device(DeviceKind::Mouse);
+      emit message("The Phantom's servo loop stopped (" + why + "); the mouse is used instead", true);
+    }
+  }
+}
+
+}  // namespace kiji::studio

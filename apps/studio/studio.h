@@ -1,0 +1,128 @@
+// The desktop app's model, without widgets: the session and its simulation thread, the pointing
+// device and its haptic loop, and every command of the menus. Each change to the session is one of
+// its operations (kiji/operation.h), so undo, saving and replay see all of it. A command that fails
+// says why through message() and leaves the session as it was.
+#pragma once
+
+#include "mouse_device.h"
+#include "scene_setup.h"
+
+#include "kiji/phantom.h"
+#include "kiji/plugin_loader.h"
+#include "kiji/simulation_loop.h"
+
+#include <QObject>
+#include <QString>
+#include <QTimer>
+
+#include <atomic>
+#include <memory>
+
+namespace kiji::studio {
+
+enum class DeviceKind { None, Mouse, Phantom };
+QString device_kind_name(DeviceKind kind);
+
+class Studio : public QObject {
+  Q_OBJECT
+ public:
+  explicit Studio(std::shared_ptr<ToolRegistry> tools, QObject* parent = nullptr);
+  ~Studio() override;
+
+  std::shared_ptr<Session> session() const { return session_; }
+  SimulationLoop& loop() { return *loop_; }
+  std::shared_ptr<const SceneFrame> frame() const { return loop_->frame(); }
+  ToolRegistry& tools() { return *tools_; }
+
+  // --- File ---
+  // An empty scene: no body, no garment.
+  void new_scene();
+  bool open_body(const QString& path, const BodyImportOptions& options);
+  bool add_garment(const GarmentSpec& spec);
+  // A session file (.kiji: the log of every operation) replayed into a new session.
+  bool open_session(const QString& path);
+  bool save_session(const QString& path);
+  bool export_garment(const QString& path, int garment = 0);
+  // Replays a journal file on the scene as it is: the strokes of a version 1 journal at their times,
+  // or the operations of a version 2 one (those the scene was set up with are skipped).
+  bool replay(const QString& journal);
+  // The session's operations as a readable JSON journal (version 2).
+  bool save_journal(const QString& path);
+
+  // --- Edit ---
+  void undo();
+  void redo();
+
+  // --- Simulation ---
+  void set_simulating(bool on);
+  bool simulating() const;
+  // Lets the garments fall and settle on the body for `seconds` of simulated time, with the drape's
+  // finer solver settings, as fast as the machine goes; frames show it.
+  void drape(double seconds);
+  bool draping() const { return draping_.load(); }
+  void cancel_drape() { cancel_drape_ = true; }
+  // The scene as it was just before the first stroke (its operations before it replayed into a
+  // new session); the strokes are dropped.
+  bool reset();
+  // Whether the session's clock runs (see SimulationLoop::set_stepping): held while a scripted
+  // run sets its scene up and replays, so that it starts from time zero every time.
+  void set_clock_running(bool on);
+
+  // --- Tools ---
+  // The tool the pointer's button uses (kButtonPrimary or kButtonSecondary) and its parameters.
+  void set_tool(std::uint32_t button, const std::string& id, const ParamSet& params);
+  std::string tool(std::uint32_t button) const { return button == kButtonSecondary ? secondary_.id : primary_.id; }
+
+  // --- Devices ---
+  // Switches the pointing device. A Phantom that cannot be opened or started is a message (with the
+  // HD error) and the mouse takes its place: returns false then.
+  bool use_device(DeviceKind kind, const PhantomOptions& options = {});
+  DeviceKind device_kind() const { return kind_; }
+  MouseDevice* mouse() { return kind_ == DeviceKind::Mouse ? mouse_.get() : nullptr; }
+  PhantomDevice* phantom() { return phantom_.get(); }
+  HapticLoop* haptics() { return haptics_.get(); }
+  const HapticOptions& haptic_options() const { return haptic_options_; }
+  void set_force_gain(double gain);
+  // The Phantom's workspace made to span the garments (or the body), turned with the camera.
+  bool fit_workspace(bool to_body, const Eigen::Quaterniond& camera);
+  QString device_description() const;
+
+ signals:
+  // For the status bar (information) or a message box (errors).
+  void message(const QString& text, bool error);
+  // The session object changed (opened, reset, new): whoever holds it takes the new one.
+  void session_replaced();
+  void device_changed();
+  // The scene changed size (a body or garment came or went): a viewport may frame it.
+  void scene_changed();
+
+ private:
+  struct ToolChoice {
+    std::string id;
+    ParamSet params;
+  };
+  void replace_session(std::shared_ptr<Session> session);
+  void start_loop();
+  void stop_device();
+  void poll();
+  bool fail(const QString& what, const std::exception& e);
+
+  std::shared_ptr<ToolRegistry> tools_;
+  std::shared_ptr<Session> session_;
+  std::unique_ptr<SimulationLoop> loop_;
+  ToolChoice primary_, secondary_;
+
+  DeviceKind kind_ = DeviceKind::None;
+  std::unique_ptr<MouseDevice> mouse_;
+  std::unique_ptr<PhantomDevice> phantom_;
+  std::unique_ptr<HapticLoop> haptics_;
+  HapticOptions haptic_options_;
+  std::size_t reported_haptic_errors_ = 0;
+  bool reported_servo_stop_ = false;
+
+  bool clock_running_ = true;
+  std::atomic<bool> draping_{false}, cancel_drape_{false};
+  QTimer poll_timer_;
+};
+
+}  // namespace kiji::studio

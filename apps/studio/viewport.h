@@ -1,0 +1,105 @@
+// The 3D view: draws the latest published frame (never waiting for a step), moves the camera
+// (middle button or Alt + left: orbit; with Shift: pan; wheel: zoom; F: frame all) and, when the
+// mouse is the pointing device, turns the cursor into a 3D pointer with a pick ray:
+//  - hovering or drawing on the cloth (cut, paint), the pointer sits on the cloth under the cursor;
+//    off the cloth, on a plane facing the camera;
+//  - while a stroke holds cloth (pinch, tear, a sewn vertex), it moves on the plane through the
+//    grabbed point facing the camera, and the wheel moves that plane nearer or farther.
+// Left button: the primary tool; right button: the secondary one.
+//
+// It is a QOpenGLWindow in a window container, not a QOpenGLWidget: for a QOpenGLWidget Qt composes
+// the whole top-level window through OpenGL on every frame, which under Mesa's llvmpipe costs
+// several times what the scene does (docs/benchmarks.md, "Kiji Studio").
+#pragma once
+
+#include "orbit_camera.h"
+#include "scene_renderer.h"
+
+#include <QElapsedTimer>
+#include <QOpenGLWindow>
+#include <QTimer>
+
+#include <deque>
+#include <optional>
+
+namespace kiji::studio {
+
+class Studio;
+
+class Viewport : public QOpenGLWindow {
+  Q_OBJECT
+ public:
+  explicit Viewport(Studio& studio);
+  ~Viewport() override;
+  // The widget that holds the view in a layout (made on the first call; owned by its parent).
+  QWidget* widget(QWidget* parent = nullptr);
+
+  OrbitCamera& camera() { return camera_; }
+  DrawOptions& draw_options() { return options_; }
+  void set_edge_display(EdgeDisplay mode);
+  // Redraw as often as the GL allows (a benchmark), or when something changed, at most 60 times a
+  // second (the default: the simulation and the haptic loop keep the cores).
+  void set_continuous(bool on);
+  double frames_per_second() const { return fps_; }
+  std::uint64_t frames_drawn() const { return frames_drawn_; }
+  std::size_t edges_drawn() const { return renderer_.edges_drawn(); }
+  // Empty when the view draws; else why it cannot (no OpenGL 3.3).
+  QString gl_error() const { return gl_error_; }
+  // The point of the widget where a world point is seen.
+  QPointF project(const Vec3& world) const;
+
+ public slots:
+  void frame_all();
+
+ signals:
+  void gl_failed(const QString& why);
+
+ protected:
+  void initializeGL() override;
+  void paintGL() override;
+  void resizeGL(int w, int h) override;
+  void mousePressEvent(QMouseEvent* e) override;
+  void mouseMoveEvent(QMouseEvent* e) override;
+  void mouseReleaseEvent(QMouseEvent* e) override;
+  void wheelEvent(QWheelEvent* e) override;
+  void keyPressEvent(QKeyEvent* e) override;
+  bool event(QEvent* e) override;  // the cursor coming in and going out
+
+ private:
+  enum class Drag { None, Orbit, Pan, Stroke };
+  void tick();
+  void release_gl();
+  // The cursor as a 3D pointer for the mouse device.
+  void push_pointer(const QPointF& at, std::uint32_t buttons);
+  Vec3 cursor_ray(const QPointF& at) const;
+  bool pick_cloth(const Vec3& origin, const Vec3& dir, double* t) const;
+
+  Studio& studio_;
+  OrbitCamera camera_;
+  DrawOptions options_;
+  SceneRenderer renderer_;
+  QString gl_error_;
+  bool gl_ready_ = false;
+  QWidget* container_ = nullptr;
+  QTimer timer_;
+  bool continuous_ = false;
+  std::uint64_t drawn_frame_ = 0;
+  bool dirty_ = true;
+  bool framed_once_ = false;
+  // A box to frame once the view has its size (framing needs the view's aspect).
+  std::optional<Box3> pending_frame_;
+  bool cursor_inside_ = false;  // a mouse's pointer is drawn only while the cursor is over the view
+
+  Drag drag_ = Drag::None;
+  QPointF last_;
+  std::uint32_t buttons_ = 0;
+  Vec3 plane_point_{0, 1, 0};  // the working plane, facing the camera
+  bool has_plane_ = false;
+
+  QElapsedTimer fps_clock_;
+  std::deque<qint64> frame_times_;
+  double fps_ = 0;
+  std::uint64_t frames_drawn_ = 0;
+};
+
+}  // namespace kiji::studio

@@ -1,0 +1,432 @@
+// Kiji Studio in a real window on a virtual X server (xvfb-run, Mesa's llvmpipe): mouse strokes sent
+// with QTest, the tool panels generated from the plugins, the stand-in Phantom pinching the cloth,
+// and bad input of every kind met with a message and a session as it was.
+#include "main_window.h"
+#include "python_console.h"
+#include "studio_options.h"
+#include "tool_panel.h"
+
+#include "kiji/journal_file.h"
+#include "kiji/session.h"
+
+#include "hd_standin/hd_record.h"
+
+#include <QCheckBox>
+#include <QComboBox>
+#include <QDoubleSpinBox>
+#include <QLabel>
+#include <QLineEdit>
+#include <QPushButton>
+#include <QSpinBox>
+#include <QtTest/QtTest>
+
+#include <atomic>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+using namespace kiji;
+using namespace kiji::studio;
+
+namespace {
+
+template <typename P>
+bool wait_until(P done, int ms = 10000) {
+  QElapsedTimer t;
+  t.start();
+  while (!done() && t.elapsed() < ms) QTest::qWait(10);
+  return done();
+}
+
+}  // namespace
+
+class StudioTest : public QObject {
+  Q_OBJECT
+
+ private:
+  std::unique_ptr<Studio> studio_;
+  std::unique_ptr<MainWindow> window_;
+  QString tmp_;
+
+  // A 1 m square hanging from its top corners in front of the camera, the simulation paused so
+  // that the cloth stays where the strokes aim.
+  void hanging_square(double spacing = 0.05) {
+    GarmentSpec g;
+    g.spacing = spacing;
+    QVERIFY(studio_->add_garment(g));
+    studio_->set_simulating(false);
+    QVERIFY(wait_until([&] { return studio_->frame() && !studio_->frame()->simulating && studio_->frame()->vertices > 0; }));
+    window_->viewport().frame_all();
+    QTest::qWait(50);
+  }
+
+  template <typename F>
+  auto with_session(F f) {
+    using R = decltype(f(std::declval<Session&>()));
+    R out{};
+    studio_->loop().call([&](Session& s) { out = f(s); });
+    return out;
+  }
+
+  // Strokes done (the undo history also has the garments added).
+  std::size_t strokes() {
+    return with_session([](Session& s) { return journal_strokes(s.journal()).size(); });
+  }
+
+  // A left-button stroke through the viewport from a to b (world points), as a hand would make it.
+  void drag(const Vec3& a, const Vec3& b, int steps = 20, Qt::KeyboardModifiers mods = Qt::NoModifier) {
+    Viewport& v = window_->viewport();
+    QTest::mouseMove(&v, v.project(a).toPoint());
+    QTest::qWait(20);
+    QTest::mousePress(&v, Qt::LeftButton, mods, v.project(a).toPoint());
+    QTest::qWait(40);
+    for (int i = 1; i <= steps; ++i) {
+      const Vec3 p = a + (b - a) * (double(i) / steps);
+      QMouseEvent move(QEvent::MouseMove, v.project(p), v.mapToGlobal(v.project(p)), Qt::NoButton, Qt::LeftButton, mods);
+      QApplication::sendEvent(&v, &move);
+      QTest::qWait(20);
+    }
+    QTest::mouseRelease(&v, Qt::LeftButton, mods, v.project(b).toPoint());
+  }
+
+ private slots:
+  void initTestCase() {
+    tmp_ = QString(KIJI_STUDIO_TEST_TMP);
+    QDir().mkpath(tmp_);
+    // The test plugin (one parameter of every type) beside the built-in tools, found as a user's own
+    // plugin would be: on KIJI_PLUGIN_PATH, with no change to the app.
+    qputenv("KIJI_PLUGIN_PATH", KIJI_TEST_PLUGIN_GOOD);
+  }
+
+  void init() {
+    qunsetenv("KIJI_HD_LIBRARY");
+    qunsetenv("KIJI_HD_STANDIN_FAIL");
+    qunsetenv("KIJI_HD_STANDIN_PATH");
+    qunsetenv("KIJI_HD_STANDIN_LOG");
+    auto registry = std::make_shared<ToolRegistry>();
+    registry->load_plugins();
+    studio_ = std::make_unique<Studio>(registry);
+    window_ = std::make_unique<MainWindow>(*studio_);
+    window_->resize(1200, 800);
+    window_->show();
+    QVERIFY(QTest::qWaitForWindowExposed(window_.get()));
+    // Keyboard shortcuts go to the active window (no window manager activates it under Xvfb).
+    QApplication::setActiveWindow(window_.get());
+    QVERIFY2(window_->viewport().gl_error().isEmpty(), qPrintable(window_->viewport().gl_error()));
+    studio_->use_device(DeviceKind::Mouse);
+  }
+
+  void cleanup() {
+    window_.reset();
+    studio_.reset();
+  }
+
+  void options_are_checked_before_any_window_opens() {
+    auto message = [](std::vector<std::string> args) {
+      try {
+        StudioOptions::parse(args);
+      } catch (const UsageError& e) {
+        return QString(e.what());
+      }
+      return QString();
+    };
+    QVERIFY(message({"--garment", "rect:1,x,0.1"}).startsWith("option --garment: "));
+    QVERIFY(message({"--up", "sideways"}).contains("option --up"));
+    QVERIFY(message({"--up", "z"}).contains("give it with --body"));
+    QVERIFY(message({"--device", "tablet"}).contains("'mouse', 'phantom' or 'none'"));
+    QVERIFY(message({"--quit-after", "-1"}).contains("--quit-after"));
+    QVERIFY(message({"--quit-after"}).contains("needs a value"));
+    QVERIFY(message({"--material", "leather"}).contains("option --material"));
+    QVERIFY(message({"--frobnicate"}).contains("unknown option '--frobnicate'"));
+    const StudioOptions o = StudioOptions::parse({"--garment", "rect:1.2,0.8,0.05", "--material", "silk", "--device=none",
+                                                  "--quit-after", "2.5", "--edges", "all"});
+    QCOMPARE(o.garments.size(), std::size_t(1));
+    QCOMPARE(o.garments[0].width, 1.2);
+    QCOMPARE(o.garments[0].material, std::string("silk"));
+    QCOMPARE(o.device, std::string("none"));
+    QCOMPARE(*o.quit_after, 2.5);
+  }
+
+  void every_tool_has_a_widget_for_each_parameter() {
+    ToolPanel& panel = window_->tool_panel();
+    const auto ids = studio_->tools().ids();
+    QVERIFY(std::find(ids.begin(), ids.end(), "probe") != ids.end());
+    for (const std::string& id : {"pinch", "tear", "cut", "sew", "paint", "pin"})
+      QVERIFY2(std::find(ids.begin(), ids.end(), id) != ids.end(), id.c_str());
+    for (const std::string& id : ids) {
+      QVERIFY2(panel.button(id), id.c_str());
+      panel.choose(id);
+      const ToolInfo info = studio_->tools().info(id);
+      QCOMPARE(panel.params().findChild<QLabel*>("tool_title")->text(), QString::fromStdString(info.label));
+      for (const ParamSpec& p : info.parameters) {
+        QWidget* e = panel.params().editor(p.name);
+        QVERIFY2(e, (id + "." + p.name).c_str());
+        QCOMPARE(e->toolTip(), QString::fromStdString(p.help));
+        switch (p.type) {
+          case ParamType::Float: {
+            auto* spin = e->findChild<QDoubleSpinBox*>("spin");
+            QVERIFY2(spin, (id + "." + p.name).c_str());
+            QCOMPARE(spin->minimum(), p.min);
+            QCOMPARE(spin->maximum(), p.max);
+            QCOMPARE(spin->value(), std::get<double>(p.default_value));
+            if (!p.unit.empty()) QVERIFY(spin->suffix().contains(QString::fromStdString(p.unit)));
+            QVERIFY(e->findChild<QSlider*>("slider"));
+            break;
+          }
+          case ParamType::Int: {
+            auto* spin = e->findChild<QSpinBox*>("spin");
+            QVERIFY(spin);
+            QCOMPARE(spin->minimum(), int(p.min));
+            QCOMPARE(spin->maximum(), int(p.max));
+            QCOMPARE(spin->value(), int(std::get<long long>(p.default_value)));
+            break;
+          }
+          case ParamType::Bool: QVERIFY(qobject_cast<QCheckBox*>(e)); break;
+          case ParamType::Choice: {
+            auto* combo = qobject_cast<QComboBox*>(e);
+            QVERIFY(combo);
+            QCOMPARE(combo->count(), int(p.choices.size()));
+            QCOMPARE(combo->currentText(), QString::fromStdString(std::get<std::string>(p.default_value)));
+            break;
+          }
+          case ParamType::Color: QVERIFY(qobject_cast<QPushButton*>(e)); break;
+          case ParamType::String: QVERIFY(qobject_cast<QLineEdit*>(e)); break;
+        }
+      }
+    }
+  }
+
+  void a_parameter_changed_in_the_panel_reaches_the_stroke() {
+    hanging_square();
+    ToolPanel& panel = window_->tool_panel();
+    panel.choose("pinch");
+    auto* stiffness = panel.params().editor("stiffness")->findChild<QDoubleSpinBox*>("spin");
+    stiffness->setValue(123.0);
+    drag(Vec3(0, 1.2, 0), Vec3(0, 1.2, 0.1), 5);
+    QVERIFY(wait_until([&] { return strokes() == 1; }));
+    const double used = with_session([](Session& s) { return std::get<double>(journal_strokes(s.journal())[0].params.at("stiffness")); });
+    QCOMPARE(used, 123.0);
+    // A value beyond the declared range is not taken: the spin box stops at the maximum.
+    stiffness->setValue(1e9);
+    QCOMPARE(stiffness->value(), 1e6);
+  }
+
+  void mouse_strokes_cut_the_garment_into_two_pieces_and_undo_redo_it() {
+    hanging_square();
+    window_->tool_panel().choose("cut");
+    // From off the cloth on the left to off it on the right, across the middle.
+    drag(Vec3(-0.7, 1.2, 0), Vec3(0.7, 1.2, 0), 40);
+    QVERIFY(wait_until([&] { return strokes() == 1; }));
+    QCOMPARE(with_session([](Session& s) { return s.garment(0).count_pieces(); }), std::size_t(2));
+    QVERIFY(with_session([](Session& s) { return s.garment(0).is_valid(); }));
+    QTest::keyClick(window_.get(), Qt::Key_Z, Qt::ControlModifier);
+    QVERIFY(wait_until([&] { return with_session([](Session& s) { return s.garment(0).count_pieces(); }) == 1; }));
+    QTest::keyClick(window_.get(), Qt::Key_Z, Qt::ControlModifier | Qt::ShiftModifier);
+    QVERIFY(wait_until([&] { return with_session([](Session& s) { return s.garment(0).count_pieces(); }) == 2; }));
+  }
+
+  void mouse_strokes_paint_texels() {
+    hanging_square();
+    window_->tool_panel().choose("paint");
+    drag(Vec3(-0.3, 1.2, 0), Vec3(0.3, 1.2, 0), 30);
+    QVERIFY(wait_until([&] { return strokes() == 1; }));
+    // The default brush colour (0.1, 0.2, 0.8): texels coloured with it.
+    const std::size_t painted = with_session([](Session& s) {
+      const Texture& t = s.garment(0).texture();
+      std::size_t n = 0;
+      for (std::size_t i = 0; i + 3 < t.rgba.size(); i += 4)
+        if (std::abs(int(t.rgba[i + 2]) - 204) < 10 && t.rgba[i] < 40) ++n;
+      return n;
+    });
+    QVERIFY2(painted > 100, qPrintable(QString("%1 texels painted").arg(painted)));
+    // And the viewport shows the texture: blue where the brush went.
+    QTest::qWait(100);
+    const QImage shot = window_->viewport().grabFramebuffer();
+    const QPoint at = window_->viewport().project(Vec3(0, 1.2, 0)).toPoint() * shot.devicePixelRatio();
+    const QColor c = shot.pixelColor(at);
+    QVERIFY2(c.blue() > c.red() + 40, qPrintable(c.name()));
+  }
+
+  void a_tool_that_throws_is_a_message_and_changes_nothing() {
+    hanging_square();
+    ToolPanel& panel = window_->tool_panel();
+    panel.choose("probe");
+    qobject_cast<QCheckBox*>(panel.params().editor("fail"))->setChecked(true);
+    const std::size_t errors = window_->errors().size();
+    drag(Vec3(0, 1.2, 0), Vec3(0.1, 1.2, 0), 3);
+    QVERIFY(wait_until([&] { return window_->errors().size() > errors; }));
+    QVERIFY2(window_->errors().back().contains("probe was asked to fail"), qPrintable(window_->errors().back()));
+    QCOMPARE(strokes(), std::size_t(0));
+    QVERIFY(!with_session([](Session& s) { return s.stroke_active(); }));
+  }
+
+  void bad_files_are_messages_and_the_session_is_as_it_was() {
+    hanging_square();
+    const std::size_t vertices = studio_->frame()->vertices;
+    const QString broken = tmp_ + "/broken.obj";
+    {
+      std::ofstream(broken.toStdString()) << "v 0 0 0\nv 1 0 \nf 1 2 9\nthis is not an obj file\n";
+    }
+    QVERIFY(!studio_->open_body(broken, {}));
+    QVERIFY(window_->errors().back().contains("The body was not opened"));
+    QVERIFY(!studio_->open_session(tmp_ + "/no-such-session.kiji"));
+    QVERIFY(!studio_->replay(tmp_ + "/broken.obj"));
+    QVERIFY(!studio_->export_garment(tmp_ + "/garment.xyz"));
+    GarmentSpec bad;
+    bad.spacing = -1;
+    QVERIFY(!studio_->add_garment(bad));
+    QVERIFY(window_->errors().back().contains("The garment was not made"));
+    QCOMPARE(studio_->frame()->vertices, vertices);
+    QCOMPARE(with_session([](Session& s) { return s.garment_count(); }), std::size_t(1));
+  }
+
+  void a_session_saved_and_opened_gives_the_same_garment() {
+    hanging_square();
+    window_->tool_panel().choose("cut");
+    drag(Vec3(-0.7, 1.2, 0), Vec3(0.7, 1.2, 0), 30);
+    QVERIFY(wait_until([&] { return strokes() == 1; }));
+    const QString path = tmp_ + "/saved.kiji";
+    QVERIFY(studio_->save_session(path));
+    const std::size_t faces = studio_->frame()->faces;
+    studio_->new_scene();
+    QCOMPARE(with_session([](Session& s) { return s.garment_count(); }), std::size_t(0));
+    QVERIFY(studio_->open_session(path));
+    QCOMPARE(with_session([](Session& s) { return s.garment(0).count_pieces(); }), std::size_t(2));
+    QCOMPARE(with_session([](Session& s) { return s.garment(0).mesh().number_of_faces(); }), faces);
+  }
+
+  void the_console_scripts_the_windows_own_session() {
+    if (!PythonConsole::available()) QFAIL("this build has no Python console");
+    hanging_square();
+    PythonConsole& console = window_->console();
+    QVERIFY2(wait_until([&] { return console.output().contains("`session` is this window's session"); }, 30000),
+             qPrintable(console.output()));
+    console.submit("n = session.garment_count; print('garments', n)");
+    QVERIFY(wait_until([&] { return !console.busy(); }, 30000));
+    QVERIFY2(console.output().contains("garments 1"), qPrintable(console.output()));
+    // A tool as a method, on the open scene: a cut across the square, in the journal like any stroke.
+    console.submit("session.cut([[-0.7, 1.2, 0.001], [0.0, 1.2, 0.001], [0.7, 1.2, 0.001]])");
+    QVERIFY(wait_until([&] { return !console.busy(); }, 30000));
+    QCOMPARE(strokes(), std::size_t(1));
+    QCOMPARE(with_session([](Session& s) { return s.garment(0).count_pieces(); }), std::size_t(2));
+    console.submit("1 / 0");
+    QVERIFY(wait_until([&] { return !console.busy(); }, 30000));
+    QVERIFY(console.output().contains("ZeroDivisionError"));
+  }
+
+  void the_standin_phantom_pinches_the_cloth_with_forces_the_device_can_take() {
+    hanging_square();
+    studio_->set_simulating(true);  // the pinch pulls through the simulation
+    window_->tool_panel().choose("pinch");
+    const QString log = tmp_ + "/phantom_pinch.log", path = tmp_ + "/phantom_pinch.path";
+    // Device millimetres: hover 20 mm in front, press 5 mm in front, pull 40 mm towards the user,
+    // hold, let go, hover.
+    std::ofstream(path.toStdString()) << "0 0 0 20 0\n1.0 0 0 5 0\n1.01 0 0 5 1\n2.0 0 0 40 1\n2.5 0 0 40 1\n"
+                                         "2.51 0 0 40 0\n3.5 0 0 40 0\n";
+    qputenv("KIJI_HD_LIBRARY", KIJI_HD_STANDIN);
+    qputenv("KIJI_HD_STANDIN_PATH", path.toUtf8());
+    qputenv("KIJI_HD_STANDIN_LOG", log.toUtf8());
+    QVERIFY(studio_->use_device(DeviceKind::Phantom));
+    // The device's origin at the square's middle, 2 world metres a device metre.
+    const Vec3 centre = with_session([](Session& s) {
+      const Box3 b = s.garment(0).bounds();
+      return Vec3(b.center().x(), 1.2, b.center().z());
+    });
+    WorkspaceMapping m;
+    m.scale = 2;
+    m.offset = centre;
+    studio_->phantom()->set_mapping(m);
+    const Vertex grabbed = with_session([&](Session& s) { return s.pick(centre + Vec3(0, 0, 0.01)).nearest; });
+    const double z0 = with_session([&](Session& s) { return s.garment(0).position(grabbed).z(); });
+    QVERIFY(wait_until([&] { return with_session([](Session& s) { return s.stroke_active(); }); }, 5000));
+    QTest::qWait(1200);  // the pull (to 0.08 m in front) and the hold
+    const double z_held = with_session([&](Session& s) { return s.garment(0).position(grabbed).z(); });
+    QVERIFY2(z_held > z0 + 0.04, qPrintable(QString("the grabbed cloth went from z %1 to %2").arg(z0).arg(z_held)));
+    QVERIFY(wait_until([&] { return strokes() == 1; }, 5000));
+    QTest::qWait(600);
+    const HapticStats stats = studio_->haptics()->stats();
+    QVERIFY2(stats.tool_errors + stats.device_errors == 0, stats.last_error.c_str());
+    studio_->use_device(DeviceKind::Mouse);  // shuts the Phantom down: the stand-in writes its record
+    const test::HdRecord r = test::read_hd_record(log.toStdString());
+    QCOMPARE(r.calls.back(), std::string("hdDisableDevice"));
+    const std::vector<std::string> tail(r.calls.end() - 3, r.calls.end());
+    QCOMPARE(tail, (std::vector<std::string>{"hdStopScheduler", "hdUnschedule", "hdDisableDevice"}));
+    QVERIFY(r.forces.size() > 2000);
+    const double span = r.forces.back().first - r.forces.front().first;
+    const double rate = r.forces.size() / span;
+    QVERIFY2(rate > 700 && rate < 1300, qPrintable(QString("%1 forces a second").arg(rate)));
+    double peak = 0;
+    for (std::size_t i = 0; i < r.forces.size(); ++i) {
+      const double f = r.forces[i].second.norm();
+      QVERIFY2(f <= 0.88 + 1e-9, qPrintable(QString("%1 N at %2 s").arg(f).arg(r.forces[i].first)));
+      // Along the one-second ramp, small steps (1.5 * 0.88 N / 1 s at most, 1.3 mN a frame); a
+      // release spreads over the 3 ms filter (28 % of the change a frame).
+      if (i > 0) {
+        const double step = (r.forces[i].second - r.forces[i - 1].second).norm();
+        QVERIFY2(step <= (r.forces[i].first < 1.0 ? 0.02 : 0.3 * 0.88), qPrintable(QString("%1 N jump at %2 s").arg(step).arg(r.forces[i].first)));
+      }
+      peak = std::max(peak, f);
+      // After the release (2.51 s) and a few frames for the stroke to end: nothing.
+      if (r.forces[i].first > 2.7) QVERIFY2(f == 0, qPrintable(QString("%1 N at %2 s").arg(f).arg(r.forces[i].first)));
+    }
+    QVERIFY2(peak > 0.2, qPrintable(QString("the pull was felt: %1 N at most").arg(peak)));
+    QVERIFY(r.forces.front().second.norm() < 0.01);
+    QCOMPARE(r.forces.back().second, Vec3::Zero());
+  }
+
+  void a_missing_or_failing_hd_library_leaves_a_working_app_with_a_message() {
+    hanging_square();
+    qputenv("KIJI_HD_LIBRARY", (tmp_ + "/no-such/libHD.so").toUtf8());
+    QVERIFY(!studio_->use_device(DeviceKind::Phantom));
+    QCOMPARE(studio_->device_kind(), DeviceKind::Mouse);
+    QVERIFY2(window_->errors().back().contains("HD library could not be opened"), qPrintable(window_->errors().back()));
+    qputenv("KIJI_HD_LIBRARY", KIJI_HD_STANDIN);
+    qputenv("KIJI_HD_STANDIN_FAIL", "init");
+    QVERIFY(!studio_->use_device(DeviceKind::Phantom));
+    QVERIFY2(window_->errors().back().contains("HD_DEVICE_FAULT (0x0300)"), qPrintable(window_->errors().back()));
+    qputenv("KIJI_HD_STANDIN_FAIL", "scheduler");
+    QVERIFY(!studio_->use_device(DeviceKind::Phantom));
+    QVERIFY2(window_->errors().back().contains("HD_TIMER_ERROR (0x0304)"), qPrintable(window_->errors().back()));
+    QCOMPARE(studio_->device_kind(), DeviceKind::Mouse);
+    // The mouse works: a cut goes through.
+    window_->tool_panel().choose("cut");
+    drag(Vec3(-0.7, 1.2, 0), Vec3(0.7, 1.2, 0), 30);
+    QVERIFY(wait_until([&] { return strokes() == 1; }));
+  }
+
+  void the_window_draws_while_a_step_takes_long() {
+    hanging_square();
+    // A step that takes as long as the test likes: the session's lock held on another thread, as a
+    // long step or a script holds it. The viewport draws what was published and turns with the
+    // camera meanwhile.
+    std::atomic<bool> held{false}, release{false};
+    std::thread slow([&] {
+      auto lock = studio_->loop().hold();
+      held = true;
+      while (!release) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    });
+    QVERIFY(wait_until([&] { return held.load(); }));
+    const std::uint64_t published = studio_->frame()->number;
+    const std::uint64_t drawn = window_->viewport().frames_drawn();
+    Viewport& v = window_->viewport();
+    const QPoint c(v.width() / 2, v.height() / 2);
+    QTest::mousePress(&v, Qt::MiddleButton, Qt::NoModifier, c);
+    for (int i = 0; i < 50; ++i) {
+      QMouseEvent move(QEvent::MouseMove, c + QPointF(4 * i, 0), v.mapToGlobal(c + QPointF(4 * i, 0)), Qt::NoButton,
+                       Qt::MiddleButton, Qt::NoModifier);
+      QApplication::sendEvent(&v, &move);
+      QTest::qWait(20);
+    }
+    QTest::mouseRelease(&v, Qt::MiddleButton, Qt::NoModifier, c + QPoint(200, 0));
+    const std::uint64_t drawn_while_held = window_->viewport().frames_drawn() - drawn;
+    const bool nothing_published = studio_->frame()->number == published;
+    release = true;
+    slow.join();
+    QVERIFY2(nothing_published, "the simulation published nothing while its session was held");
+    QVERIFY2(drawn_while_held >= 10, qPrintable(QString("%1 frames drawn during 50 camera moves").arg(drawn_while_held)));
+    QVERIFY(wait_until([&] { return studio_->frame()->number > published; })) ;
+  }
+};
+
+QTEST_MAIN(StudioTest)
+#include "test_studio.moc"

@@ -30,3 +30,5 @@ if(NOT TARGET GLib2::glib)
   set_target_properties(GLib2::glib PROPERTIES INTERFACE_LINK_LIBRARIES PkgConfig::GLIB)
 endif()
 find_package(lcm 1.5 REQUIRED CONFIG)
+# libsodium: the peers' message authentication (HMAC-SHA-512-256 with the session's key).
+pkg_check_modules(SODIUM REQUIRED IMPORTED_TARGET libsodium)

@@ -8,7 +8,8 @@ cd "$(dirname "$0")/.."
 packages=(
   build-essential cmake ninja-build pkg-config git
   libeigen3-dev libcgal-dev libbullet-dev libassimp-dev assimp-testmodels
-  libpng-dev zlib1g-dev libgtest-dev nlohmann-json3-dev libglib2.0-dev
+  libpng-dev zlib1g-dev libgtest-dev nlohmann-json3-dev libglib2.0-dev libsodium-dev
+  iproute2 nftables util-linux
   python3 python3-dev python3-venv
   # Kiji Studio, the desktop app (built where Qt 6 is found), and its tests under a virtual X server.
   qt6-base-dev libqt6opengl6-dev libgl-dev xvfb xauth

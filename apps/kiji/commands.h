@@ -10,5 +10,6 @@ int drape_command(const std::vector<std::string>& args);
 int tools_command(const std::vector<std::string>& args);
 int bench_command(const std::vector<std::string>& args);
 int recover_command(const std::vector<std::string>& args);
+int peer_command(const std::vector<std::string>& args);
 
 }  // namespace kiji::cli

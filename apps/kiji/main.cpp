@@ -19,6 +19,7 @@ const char* kUsage =
     "  tools     list the tool plugins found, with their parameters\n"
     "  bench     measure this machine: the paper's tables, Bullet's cloth, haptics, scaling\n"
     "  recover   rebuild a design session from its session file (an autosave) after a crash\n"
+    "  peer      host or join a design session shared with others over the network\n"
     "  version   print Kiji's version\n"
     "\n"
     "'kiji COMMAND --help' describes a command's options.\n";
@@ -38,6 +39,7 @@ int main(int argc, char** argv) {
     if (command == "tools") return kiji::cli::tools_command(args);
     if (command == "bench") return kiji::cli::bench_command(args);
     if (command == "recover") return kiji::cli::recover_command(args);
+    if (command == "peer") return kiji::cli::peer_command(args);
     if (command == "version" || command == "--version") {
       std::printf("kiji %s\n", kiji::version());
       return 0;

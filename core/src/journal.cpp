@@ -99,6 +99,12 @@ void Journal::set_history_limit(std::size_t bytes) {
   enforce_limit();
 }
 
+void Journal::clear_history() {
+  entries_.clear();
+  cursor_ = 0;
+  history_bytes_ = 0;
+}
+
 void Journal::clear() {
   operations_.clear();
   entries_.clear();

@@ -251,7 +251,8 @@ json operation_json(const Operation& op) {
                         [&](const op::SetFrameRate& a) { j["steps_per_second"] = a.steps_per_second; },
                         [&](const op::SetSimulating& a) { j["simulating"] = a.simulating; },
                         [&](const op::SetPickRadius& a) { j["radius"] = a.radius; }, [&](const op::Undo&) {},
-                        [&](const op::Redo&) {}, [&](const op::Advance&) {}},
+                        [&](const op::Redo&) {}, [&](const op::Advance&) {},
+                        [&](const op::Checkpoint& a) { j["state"] = bytes(a.state); }},
              op.data);
   return j;
 }
@@ -300,6 +301,8 @@ Operation parse_operation(const json& j, const Reader& r) {
     op.data = op::Redo{};
   } else if (kind == "advance") {
     op.data = op::Advance{};
+  } else if (kind == "checkpoint") {
+    op.data = op::Checkpoint{payload("state")};
   } else {
     r.fail("unknown kind '" + kind + "'");
   }
@@ -361,6 +364,12 @@ std::vector<JournalStroke> strokes_of(const std::vector<Operation>& operations) 
     if (std::holds_alternative<op::Redo>(op.data)) {
       open.clear();
       if (cursor < history.size()) ++cursor;
+      continue;
+    }
+    if (std::holds_alternative<op::Checkpoint>(op.data)) {  // a new undo history
+      open.clear();
+      history.clear();
+      cursor = 0;
       continue;
     }
     const auto* t = std::get_if<op::ToolInput>(&op.data);

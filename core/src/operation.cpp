@@ -29,6 +29,7 @@ enum Kind : std::uint8_t {
   kUndo = 10,
   kRedo = 11,
   kAdvance = 12,
+  kCheckpoint = 13,
 };
 
 enum ValueTag : std::uint8_t { kBool = 0, kInt = 1, kFloat = 2, kString = 3, kColor = 4 };
@@ -166,13 +167,15 @@ const char* operation_kind(const OperationData& data) {
                                [](const op::SetSimulating&) { return "set_simulating"; },
                                [](const op::SetPickRadius&) { return "set_pick_radius"; },
                                [](const op::Undo&) { return "undo"; }, [](const op::Redo&) { return "redo"; },
-                               [](const op::Advance&) { return "advance"; }},
+                               [](const op::Advance&) { return "advance"; },
+                               [](const op::Checkpoint&) { return "checkpoint"; }},
                     data);
 }
 
 bool changes_garments(const OperationData& data) {
   return std::holds_alternative<op::ToolInput>(data) || std::holds_alternative<op::AddGarment>(data) ||
-         std::holds_alternative<op::RemoveGarment>(data) || std::holds_alternative<op::SetGarment>(data);
+         std::holds_alternative<op::RemoveGarment>(data) || std::holds_alternative<op::SetGarment>(data) ||
+         std::holds_alternative<op::Checkpoint>(data);
 }
 
 std::string encode_operation(const Operation& op) {
@@ -225,7 +228,12 @@ std::string encode_operation(const Operation& op) {
                           w.f64(a.radius);
                         },
                         [&](const op::Undo&) { w.u8(kUndo); }, [&](const op::Redo&) { w.u8(kRedo); },
-                        [&](const op::Advance&) { w.u8(kAdvance); }},
+                        [&](const op::Advance&) { w.u8(kAdvance); },
+                        [&](const op::Checkpoint& a) {
+                          w.u8(kCheckpoint);
+                          w.u8(a.state != nullptr);
+                          if (a.state) w.bytes(*a.state);
+                        }},
              op.data);
   return w.take();
 }
@@ -269,6 +277,12 @@ Operation decode_operation(std::string_view bytes, const DecodeLimits& limits) {
     case kUndo: op.data = op::Undo{}; break;
     case kRedo: op.data = op::Redo{}; break;
     case kAdvance: op.data = op::Advance{}; break;
+    case kCheckpoint: {
+      op::Checkpoint cp;
+      if (r.boolean("whether there is a state")) cp.state = payload(r, "the state");
+      op.data = std::move(cp);
+      break;
+    }
     default: r.fail("unknown operation kind");
   }
   if (!r.at_end()) r.fail(std::to_string(r.left()) + " bytes are left over after the operation");

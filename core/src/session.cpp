@@ -4,6 +4,8 @@
 #include "kiji/error.h"
 #include "kiji/pick.h"
 
+#include "byte_io.h"
+
 #include <cmath>
 #include <sstream>
 #include <vector>
@@ -47,20 +49,20 @@ Session::~Session() = default;
 
 std::size_t Session::add_garment(const Garment& garment) {
   garment.validate();
-  Operation op{steps_, 0, op::AddGarment{shared_bytes(encode_garment(garment))}};
-  perform(op);
-  return garments_.size() - 1;
+  const std::size_t index = garments_.size();
+  submit({steps_, 0, op::AddGarment{shared_bytes(encode_garment(garment))}});
+  return index;
 }
 
 void Session::remove_garment(std::size_t index) {
   this->garment(index);
-  perform({steps_, 0, op::RemoveGarment{static_cast<std::uint32_t>(index)}});
+  submit({steps_, 0, op::RemoveGarment{static_cast<std::uint32_t>(index)}});
 }
 
 void Session::set_garment(std::size_t index, const Garment& garment) {
   this->garment(index);
   garment.validate();
-  perform({steps_, 0, op::SetGarment{static_cast<std::uint32_t>(index), shared_bytes(encode_garment(garment))}});
+  submit({steps_, 0, op::SetGarment{static_cast<std::uint32_t>(index), shared_bytes(encode_garment(garment))}});
 }
 
 Garment& Session::garment(std::size_t index) {
@@ -75,7 +77,7 @@ const Garment& Session::garment(std::size_t index) const { return const_cast<Ses
 void Session::set_body(std::optional<Body> body) {
   op::SetBody b;
   if (body) b.body = shared_bytes(encode_body(*body));
-  perform({steps_, 0, std::move(b)});
+  submit({steps_, 0, std::move(b)});
 }
 
 Solver& Session::solver(std::size_t index) {
@@ -87,7 +89,7 @@ const Solver& Session::solver(std::size_t index) const { return const_cast<Sessi
 
 void Session::set_solver_params(const SolverParams& params) {
   params.validate();
-  perform({steps_, 0, op::SetSolverParams{params}});
+  submit({steps_, 0, op::SetSolverParams{params}});
 }
 
 void Session::set_frame_rate(double steps_per_second) {
@@ -96,10 +98,10 @@ void Session::set_frame_rate(double steps_per_second) {
     msg << "frame rate " << steps_per_second << " is out of range: use 1 to 10000 steps a second";
     throw InputError(msg.str());
   }
-  perform({steps_, 0, op::SetFrameRate{steps_per_second}});
+  submit({steps_, 0, op::SetFrameRate{steps_per_second}});
 }
 
-void Session::set_simulating(bool simulating) { perform({steps_, 0, op::SetSimulating{simulating}}); }
+void Session::set_simulating(bool simulating) { submit({steps_, 0, op::SetSimulating{simulating}}); }
 
 void Session::set_pick_radius(double metres) {
   if (!std::isfinite(metres) || metres <= 0 || metres > 10) {
@@ -107,12 +109,24 @@ void Session::set_pick_radius(double metres) {
     msg << "pick radius " << metres << " m is out of range: use more than 0 and at most 10 m";
     throw InputError(msg.str());
   }
-  perform({steps_, 0, op::SetPickRadius{metres}});
+  submit({steps_, 0, op::SetPickRadius{metres}});
 }
 
 // --- clock ---
 
 void Session::step() {
+  if (gate_)
+    throw InputError("this session is shared with peers: its clock is the shared one, stepped by the peer; "
+                     "wait for time to pass through the peer instead");
+  simulate_step();
+}
+
+void Session::step(const void* owner) {
+  if (gate_ && owner != gate_owner_) step();
+  simulate_step();
+}
+
+void Session::simulate_step() {
   const double dt = 1.0 / frame_rate_;
   if (simulating_)
     for (std::size_t i = 0; i < garments_.size(); ++i) solvers_[i]->step(garments_[i], dt);
@@ -129,7 +143,7 @@ void Session::advance_to(double t) {
     throw InputError(msg.str());
   }
   // A small tolerance so that t = n / frame_rate does not take an extra step to rounding.
-  while (time_ + 1e-9 < t) step();
+  while (time_ + 1e-9 < t) simulate_step();
 }
 
 void Session::advance_to_step(std::uint64_t step) {
@@ -140,7 +154,7 @@ void Session::advance_to_step(std::uint64_t step) {
     throw InputError("an operation for step " + std::to_string(step) + " is more than " +
                      std::to_string(int(max_advance_seconds)) + " s after the session's step " +
                      std::to_string(steps_));
-  while (steps_ < step) this->step();
+  while (steps_ < step) simulate_step();
 }
 
 // --- picking and tools ---
@@ -169,6 +183,13 @@ std::vector<UserId> Session::active_users() const {
   std::vector<UserId> out;
   for (const auto& [user, stroke] : active_) out.push_back(user);
   return out;
+}
+
+const std::string& Session::stroke_tool(UserId user) const {
+  static const std::string none;
+  if (!gate_) return active_tool(user);
+  auto p = proposed_.find(user);
+  return p != proposed_.end() ? p->second : none;
 }
 
 const std::string& Session::active_tool(UserId user) const {
@@ -201,6 +222,19 @@ Feedback Session::apply(Tool& tool, const ToolEvent& event, const ParamSet* para
   input.event = event;
   input.event.hit = SurfaceHit{};
   if (event.phase == Phase::Begin && params) input.params = params->values();
+  if (gate_) {
+    const ToolEvent& e = input.event;
+    if (!all_finite(e.position) || !all_finite(e.ray) || !std::isfinite(e.time) || !std::isfinite(e.pressure) ||
+        !e.orientation.coeffs().allFinite() || !(e.pressure >= 0 && e.pressure <= 1))
+      throw InputError("tool event for '" + input.tool + "' has a coordinate, time or pressure out of range");
+    if (e.phase == Phase::Begin && !params) throw InputError("a '" + input.tool + "' stroke begins without parameters");
+    const double ahead = std::max(0.0, e.time - time_);
+    if (ahead > max_advance_seconds) advance_to(e.time);  // throws, saying why
+    if (e.phase == Phase::Begin) proposed_[user] = input.tool;
+    if (e.phase == Phase::End || e.phase == Phase::Cancel) proposed_.erase(user);
+    submit({steps_ + static_cast<std::uint64_t>(std::ceil(ahead * frame_rate_ - 1e-9)), user, std::move(input)});
+    return {};
+  }
   return do_tool(tool, input, params, user, /*rethrow=*/true);
 }
 
@@ -253,6 +287,7 @@ Feedback Session::do_tool(Tool& tool, const op::ToolInput& input, const ParamSet
   ActiveStroke& active = *it->second;
   active.entry.events.push_back(event);
   Feedback feedback;
+  last_tool_error_.clear();
   try {
     switch (event.phase) {
       case Phase::Begin: feedback = tool.begin(*this, active.params, event); break;
@@ -272,6 +307,13 @@ Feedback Session::do_tool(Tool& tool, const op::ToolInput& input, const ParamSet
     restore(stroke->entry.before);
     log(std::move(logged));
     if (rethrow) throw;
+    try {
+      throw;
+    } catch (const std::exception& e) {
+      last_tool_error_ = std::string("the '") + id + "' stroke failed and was undone: " + e.what();
+    } catch (...) {
+      last_tool_error_ = "the '" + id + "' stroke failed and was undone";
+    }
     return {};
   }
   if (event.phase == Phase::End) {
@@ -291,6 +333,15 @@ void Session::run(const std::string& tool_id, const ParamSet& params, const Stro
 void Session::run(Tool& tool, const ParamSet& params, const Stroke& stroke, UserId user) {
   if (stroke.empty() || stroke.front().phase != Phase::Begin)
     throw InputError("a stroke for '" + tool.info().id + "' must start with a begin event");
+  if (gate_) {  // the whole stroke goes to the gate, to be applied in its turn
+    for (const ToolEvent& e : stroke) apply(tool, e, &params, user);
+    if (stroke.back().phase != Phase::End && stroke.back().phase != Phase::Cancel) {
+      ToolEvent end = stroke.back();
+      end.phase = Phase::End;
+      apply(tool, end, &params, user);
+    }
+    return;
+  }
   for (const ToolEvent& e : stroke) {
     apply(tool, e, &params, user);
     if (!stroke_active(user)) return;  // an End or Cancel closed it
@@ -302,16 +353,19 @@ void Session::run(Tool& tool, const ParamSet& params, const Stroke& stroke, User
 }
 
 void Session::cancel_all_strokes() {
+  // Applied here and now, gate or no gate: these cancels are part of the operation being applied.
   while (!active_.empty()) {
     const auto& [user, stroke] = *active_.begin();
-    apply(*stroke->tool, phase_event(Phase::Cancel, time_), nullptr, user);
+    op::ToolInput cancel{stroke->id, {}, phase_event(Phase::Cancel, time_)};
+    do_tool(*stroke->tool, cancel, nullptr, user, /*rethrow=*/true);
   }
 }
 
 // --- operations ---
 
 Feedback Session::perform(const Operation& operation) {
-  advance_to_step(operation.step);
+  const auto* checkpoint = std::get_if<op::Checkpoint>(&operation.data);
+  if (!checkpoint || !checkpoint->state) advance_to_step(operation.step);  // a given state sets the clock
   const UserId user = operation.user;
   return std::visit(
       Overloaded{
@@ -411,8 +465,108 @@ Feedback Session::perform(const Operation& operation) {
           [&](const op::Advance&) -> Feedback {
             log(operation);
             return {};
+          },
+          [&](const op::Checkpoint& c) -> Feedback {
+            if (!c.state) cancel_all_strokes();
+            const std::string own = c.state ? std::string() : encode_state();
+            load_state(c.state ? std::string_view(*c.state) : std::string_view(own));
+            log(operation);
+            return {};
           }},
       operation.data);
+}
+
+std::string Session::encode_state() const {
+  // The clock, then the settings and the scene as the operations that would make them.
+  detail::ByteWriter w;
+  w.u16(kOperationFormatVersion);
+  w.u64(steps_);
+  w.f64(time_);
+  std::vector<Operation> ops = {{steps_, 0, op::SetFrameRate{frame_rate_}},
+                                {steps_, 0, op::SetSimulating{simulating_}},
+                                {steps_, 0, op::SetPickRadius{pick_radius_}},
+                                {steps_, 0, op::SetSolverParams{solver_params_}}};
+  op::SetBody b;
+  if (body_) b.body = shared_bytes(encode_body(*body_));
+  ops.push_back({steps_, 0, std::move(b)});
+  for (const Garment& g : garments_) ops.push_back({steps_, 0, op::AddGarment{shared_bytes(encode_garment(g))}});
+  w.u32(static_cast<std::uint32_t>(ops.size()));
+  for (const Operation& op : ops) w.bytes(encode_operation(op));
+  return w.take();
+}
+
+void Session::load_state(std::string_view state) {
+  // Everything is read and built before anything of this session changes.
+  detail::ByteReader r(state, "session state");
+  const std::uint16_t version = r.u16();
+  if (version == 0 || version > kOperationFormatVersion)
+    r.fail("version " + std::to_string(version) + "; this Kiji reads 1 to " + std::to_string(kOperationFormatVersion));
+  const std::uint64_t steps = r.u64();
+  const double time = r.finite("the clock");
+  const std::size_t n = r.count(1u << 20, 8, "the number of parts");
+  double frame_rate = 60, pick_radius = 0.05;
+  bool simulating = true;
+  SolverParams params;
+  std::shared_ptr<const Body> body;
+  std::vector<Garment> garments;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Operation op = decode_operation(r.bytes(r.left(), "a part"));
+    std::visit(Overloaded{[&](const op::SetFrameRate& f) { frame_rate = f.steps_per_second; },
+                          [&](const op::SetSimulating& s) { simulating = s.simulating; },
+                          [&](const op::SetPickRadius& p) { pick_radius = p.radius; },
+                          [&](const op::SetSolverParams& p) { params = p.params; },
+                          [&](const op::SetBody& b) {
+                            body = b.body ? std::make_shared<const Body>(decode_body(*b.body)) : nullptr;
+                          },
+                          [&](const op::AddGarment& a) {
+                            if (!a.garment) throw InputError("session state: a garment is missing");
+                            garments.push_back(decode_garment(*a.garment));
+                          },
+                          [&](const auto&) { throw InputError("session state: a part is not a setting or a garment"); }},
+               op.data);
+  }
+  if (!(frame_rate >= 1 && frame_rate <= 10000) || !(pick_radius > 0 && pick_radius <= 10))
+    throw InputError("session state: a setting is out of range");
+  // Strokes in progress end (their tools let go of what they hold), and the tools start afresh.
+  for (auto& [user, stroke] : active_) {
+    try {
+      stroke->tool->cancel(*this);
+    } catch (...) {
+    }
+  }
+  active_.clear();
+  tool_instances_.clear();
+  steps_ = steps;
+  time_ = time;
+  frame_rate_ = frame_rate;
+  simulating_ = simulating;
+  pick_radius_ = pick_radius;
+  solver_params_ = params;
+  garments_ = std::move(garments);
+  solvers_.clear();
+  for (std::size_t i = 0; i < garments_.size(); ++i) solvers_.push_back(std::make_unique<Solver>(solver_params_));
+  for (auto& s : solvers_) s->set_body(body.get());
+  body_ = std::move(body);
+  journal_.clear_history();
+}
+
+void Session::submit(Operation op) {
+  if (gate_) {
+    gate_(op);
+    return;
+  }
+  perform(op);
+}
+
+void Session::set_gate(OperationGate gate, const void* owner) {
+  gate_ = std::move(gate);
+  gate_owner_ = owner;
+}
+
+void Session::clear_gate() {
+  proposed_.clear();
+  gate_ = nullptr;
+  gate_owner_ = nullptr;
 }
 
 void Session::log(Operation op) {
@@ -429,6 +583,10 @@ int Session::add_listener(OperationListener listener) {
 void Session::remove_listener(int id) { listeners_.erase(id); }
 
 bool Session::undo() {
+  if (gate_) {
+    submit({steps_, 0, op::Undo{}});
+    return journal_.can_undo();
+  }
   cancel_all_strokes();
   if (!journal_.can_undo()) return false;
   perform({steps_, 0, op::Undo{}});
@@ -436,6 +594,10 @@ bool Session::undo() {
 }
 
 bool Session::redo() {
+  if (gate_) {
+    submit({steps_, 0, op::Redo{}});
+    return journal_.can_redo();
+  }
   cancel_all_strokes();
   if (!journal_.can_redo()) return false;
   perform({steps_, 0, op::Redo{}});

@@ -241,8 +241,8 @@ void schedule(std::size_t count, std::size_t n, const std::vector<int>& block, i
 // the triangulation: on make_rectangle's grid, whose diagonals alternate like a checkerboard, a
 // vertex has 8 edges or 4, and the anchors S = 2 apart were the 8-edge vertices (a quarter of
 // them) when the grid's side was odd, but often the 4-edge ones (every second vertex) when it was
-// even: 9.6 limits a vertex instead of 3.9 (962,357 at 100,000 vertices, side 316), and a step of
-// that cloth falling onto the body took 150-162 ms where it now takes 138-142. With the choice, an
+// even: 9.6 limits a vertex instead of 3.9, and every one of them is work in every substep. With
+// the choice, an
 // even side gets 3.8 a vertex; an odd side, whose anchors were already the 8-edge vertices, gets
 // the same limits, in the same order, as before.
 void build_long_range(SolverArrays& s) {
@@ -373,8 +373,8 @@ void build_long_range(SolverArrays& s) {
 // A Bullet tree (btDbvt) over leaves in Morton order, split where the codes' highest differing
 // bit changes (a linear BVH, Karras 2012; halves where codes are equal): O(n) after the sort, and
 // on cloth its self-collision queries are as fast as btDbvt::optimizeTopDown's tree, whose
-// bottom-up pass over blocks of 128 leaves took 230 ms of a 20,000-vertex rebuild (inserting the
-// leaves one by one in spatial order, before it, another 200 ms). Nodes are allocated as btDbvt
+// bottom-up pass over blocks of 128 leaves (and the one-by-one insertion before it) made a rebuild
+// cost more than the queries it serves (docs/benchmarks.md). Nodes are allocated as btDbvt
 // allocates its own (btAlignedAlloc, 16 bytes aligned), so the tree frees them as its own.
 btDbvtNode* build_node(const std::vector<std::pair<std::uint32_t, int>>& keys, int b, int e,
                        const std::vector<btDbvtVolume>& volumes, btDbvtNode* parent,

@@ -18,7 +18,7 @@ Feedback apply_event(Session& s, const std::string& tool, const ToolEvent& e, co
 }
 
 const std::string& active_tool_or_throw(const Session& s, UserId user, const char* call) {
-  const std::string& tool = s.active_tool(user);
+  const std::string& tool = s.stroke_tool(user);
   if (tool.empty())
     throw InputError(std::string(call) + ": user " + std::to_string(user) +
                      " has no stroke in progress: start one with session.begin(tool, event, **params)");
@@ -87,7 +87,7 @@ void bind_interactive(py::module_& m) {
      "The button was released: the stroke is finished and becomes one step of the undo history.");
   s.def("cancel", [](Session& self, UserId user) {
     SessionGuard lock(self);
-    const std::string tool = self.active_tool(user);
+    const std::string tool = self.stroke_tool(user);
     if (tool.empty()) return false;
     ToolEvent e;
     e.phase = Phase::Cancel;
@@ -98,9 +98,11 @@ void bind_interactive(py::module_& m) {
      "Abandons the user's stroke: the garments go back to where it began. False if there was none.");
   s.def("active_tool", [](const Session& self, UserId user) -> py::object {
     SessionGuard lock(self);
-    const std::string& t = self.active_tool(user);
+    const std::string& t = self.stroke_tool(user);
     return t.empty() ? py::object(py::none()) : py::object(py::str(t));
-  }, py::kw_only(), py::arg("user") = 0, "The tool of the user's stroke in progress, or None.");
+  }, py::kw_only(), py::arg("user") = 0,
+     "The tool of the user's stroke in progress, or None (in a shared session, from its begin, before\n"
+     "its turn to be applied comes).");
   s.def_property_readonly("active_users", [](const Session& self) {
     SessionGuard lock(self);
     return self.active_users();

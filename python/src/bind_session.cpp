@@ -118,21 +118,21 @@ py::array_t<double> run_stroke(Session& s, const std::string& tool_id, const Par
     py::gil_scoped_release nogil;
     try {
       for (std::size_t i = 0; i < stroke.size(); ++i) {
-        if (i > 0 && !s.stroke_active()) break;  // an End or Cancel closed it
+        if (i > 0 && s.stroke_tool().empty()) break;  // an End or Cancel closed it (stroke_tool: shared too)
         forces[i] = s.apply(tool, stroke[i], &params).force;
         if (!hook(double(i + 1) / double(stroke.size()))) {
-          if (s.stroke_active()) s.apply(tool, ToolEvent{Phase::Cancel, s.time()});
+          if (!s.stroke_tool().empty()) s.apply(tool, ToolEvent{Phase::Cancel, s.time()});
           break;
         }
       }
-      if (s.stroke_active()) {  // a stroke without End ends where it stops, as a released button
+      if (!s.stroke_tool().empty()) {  // a stroke without End ends where it stops, as a released button
         ToolEvent end = stroke.back();
         end.phase = Phase::End;
         s.apply(tool, end, &params);
       }
     } catch (...) {
       // An interrupt or an error between events: cancel, so nothing is half-applied.
-      if (s.stroke_active()) {
+      if (!s.stroke_tool().empty()) {
         try {
           s.apply(tool, ToolEvent{Phase::Cancel, s.time()});
         } catch (...) {

@@ -177,5 +177,6 @@ void bind_operations(py::module_& m);
 void bind_haptics(py::module_& m);
 void bind_tools(py::module_& m);
 void bind_collision(py::module_& m);
+void bind_peer(py::module_& m);
 
 }  // namespace kiji::python

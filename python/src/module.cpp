@@ -19,4 +19,5 @@ PYBIND11_MODULE(_kiji, m) {
   kiji::python::bind_collision(m);
   kiji::python::bind_haptics(m);
   kiji::python::bind_tools(m);
+  kiji::python::bind_peer(m);
 }

@@ -148,8 +148,8 @@ struct HapticStats {
   double force_median_us = 0;   // time of the tool's force callback
   double force_p99_us = 0;
   // The loop's thread runs at real-time priority (SCHED_FIFO, the lowest such), above the
-  // simulation's threads: on two cores busy with a 20,000-vertex simulation its period wavered by
-  // 120-520 us (standard deviation) without it and 9-62 us with it. A user without the right to it
+  // simulation's threads, which would otherwise take the cores it needs and make its period waver
+  // by a tenth of it or more (docs/benchmarks.md). A user without the right to it
   // (root, CAP_SYS_NICE, or an `rtprio` limit in /etc/security/limits.conf) gets a normal thread,
   // and false here. A servo-driven device's loop runs at its driver's priority.
   bool realtime = false;

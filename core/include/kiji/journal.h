@@ -65,6 +65,8 @@ class Journal {
   // The newest snapshot in the history (to share textures with), or null.
   const GarmentSnapshot* latest_snapshot() const;
   void clear();
+  // Forgets the undo history (the log stays).
+  void clear_history();
 
   // Bytes of garments and textures the undo history holds.
   std::size_t history_bytes() const { return history_bytes_; }

@@ -12,7 +12,7 @@
 // Kinds: tool (params on begin only), add_garment, remove_garment (index), set_garment (index,
 // garment), set_body (body or null), set_solver_params (params, by name), set_frame_rate
 // (steps_per_second), set_simulating (simulating), set_pick_radius (radius), undo, redo, advance
-// (the clock reached `step`; a saved file ends with one). Garments
+// (the clock reached `step`; a saved file ends with one), checkpoint (state or null). Garments
 // and bodies are their binary forms (kiji/operation.h) in base64; numbers are written so that
 // doubles read back exactly.
 //

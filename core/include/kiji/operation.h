@@ -70,12 +70,19 @@ struct Redo {};
 // Time passed: the session's clock reached op.step, and nothing else changed. Saved files end with
 // one, so that replaying them ends where the session was, not at its last change.
 struct Advance {};
+// The session starts again from a whole state (Session::encode_state): every stroke in progress
+// ended, a new undo history, garments rebuilt from their binary forms and fresh solvers. With no
+// state, from its own: what every peer does at once when a peer joins, so that all of them and the
+// newcomer go on from the very same state.
+struct Checkpoint {
+  std::shared_ptr<const std::string> state;  // Session::encode_state(); null: the session's own
+};
 
 }  // namespace op
 
 using OperationData = std::variant<op::ToolInput, op::AddGarment, op::RemoveGarment, op::SetGarment, op::SetBody,
                                    op::SetSolverParams, op::SetFrameRate, op::SetSimulating, op::SetPickRadius,
-                                   op::Undo, op::Redo, op::Advance>;
+                                   op::Undo, op::Redo, op::Advance, op::Checkpoint>;
 
 struct Operation {
   // The number of simulation steps the session had taken when the operation was applied: replay
@@ -87,7 +94,7 @@ struct Operation {
 
 // The operation's kind as a word: "tool", "add_garment", "remove_garment", "set_garment",
 // "set_body", "set_solver_params", "set_frame_rate", "set_simulating", "set_pick_radius", "undo",
-// "redo", "advance".
+// "redo", "advance", "checkpoint".
 const char* operation_kind(const OperationData& data);
 
 // Whether an operation can change a garment (and so is a step of the undo history when it

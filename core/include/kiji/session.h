@@ -62,7 +62,7 @@ class Session {
   double frame_rate() const { return frame_rate_; }
   void set_frame_rate(double steps_per_second);  // 1..10000
   // One simulation step of every garment (1 / frame_rate seconds). Not an operation: time passing
-  // is what every copy of the session does by itself.
+  // is what every copy of the session does by itself. Refused while a gate is set (see set_gate).
   void step();
   // Steps until the clock reaches t (nothing if it already has). Refuses a t more than
   // max_advance_seconds ahead, which would not end in any useful time.
@@ -100,7 +100,11 @@ class Session {
   bool stroke_active(UserId user = 0) const { return active_.count(user) > 0; }
   // Users with a stroke in progress.
   std::vector<UserId> active_users() const;
+  // The tool of a user's stroke in progress, as applied ("" if none).
   const std::string& active_tool(UserId user = 0) const;
+  // The same as its user sees it: while the session is shared, a stroke begun here is in progress
+  // from its begin, before its turn to be applied comes.
+  const std::string& stroke_tool(UserId user = 0) const;
   // The tool instance a user's strokes use for an id (created on first use).
   Tool& tool(const std::string& id, UserId user = 0);
 
@@ -116,6 +120,9 @@ class Session {
   using OperationListener = std::function<void(const Operation&)>;
   int add_listener(OperationListener listener);
   void remove_listener(int id);
+  // Why the last tool event that perform() applied failed (its stroke was cancelled), or "" if it
+  // did not: perform() does not rethrow a tool's error, which a replay or a peer expects to recur.
+  const std::string& last_tool_error() const { return last_tool_error_; }
 
   // --- journal ---
   const Journal& journal() const { return journal_; }
@@ -125,6 +132,24 @@ class Session {
   bool redo();
   // Bytes the undo history may hold (see Journal::set_history_limit).
   void set_history_limit(std::size_t bytes) { journal_.set_history_limit(bytes); }
+
+  // --- sharing (peers) ---
+  // A gate takes the changes this session's users make (every public method above that changes the
+  // session, tool events, undo and redo) instead of applying them: a peer proposes them to the
+  // others, and applies them in the order they all agree on with perform(). Each goes to the gate
+  // checked as far as it can be without applying it, with op.step the step it asks to be applied at
+  // (for a tool event, the step its time falls on). While a gate is set, the clock is the gate
+  // owner's: step() from anyone else is refused.
+  using OperationGate = std::function<void(const Operation&)>;
+  void set_gate(OperationGate gate, const void* owner);
+  void clear_gate();
+  bool gated() const { return static_cast<bool>(gate_); }
+  // One step, by the gate's owner (or anyone when no gate is set).
+  void step(const void* owner);
+
+  // The whole state as bytes: settings, body, garments and clock (not the undo history, strokes in
+  // progress, or the log). A Checkpoint operation with these bytes makes any session this state.
+  std::string encode_state() const;
 
   // --- threads ---
   // A session is used by one thread at a time. Code that shares one between threads (an app's
@@ -144,6 +169,10 @@ class Session {
   void do_remove_garment(std::size_t index);
   Feedback do_tool(Tool& tool, const op::ToolInput& input, const ParamSet* params, UserId user, bool rethrow);
   void cancel_all_strokes();
+  // Applies the operation, or hands it to the gate.
+  void submit(Operation op);
+  void load_state(std::string_view state);
+  void simulate_step();
 
   std::shared_ptr<ToolRegistry> registry_;
   std::vector<Garment> garments_;
@@ -159,6 +188,11 @@ class Session {
   std::map<UserId, std::unique_ptr<ActiveStroke>> active_;
   Journal journal_;
   std::map<int, OperationListener> listeners_;
+  OperationGate gate_;
+  std::string last_tool_error_;
+  const void* gate_owner_ = nullptr;
+  // While shared: the strokes this session's users began and have not ended, applied or not yet.
+  std::map<UserId, std::string> proposed_;
   int next_listener_ = 0;
   mutable std::recursive_mutex mutex_;
 };

@@ -1,0 +1,61 @@
+// Runs a Peer in real time on LCM: a thread that receives the peers' messages, ticks the engine and
+// steps the shared session, so that an app, a script or the command line only makes its changes to
+// the session as usual and reads what it likes. Everything happens under the session's mutex: the
+// thread holds it for each batch of messages and each tick, a user holds it for each change.
+#pragma once
+
+#include "kiji/peer.h"
+
+#include <atomic>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <utility>
+
+namespace kiji {
+
+namespace detail {
+class LcmBus;
+}
+
+struct PeerNetwork {
+  // The LCM provider. ttl=0 keeps the packets on this host; ttl=1 reaches the local network.
+  std::string url = "udpm://239.255.76.67:7667?ttl=0";
+  std::string channel = "KIJI_PEER";  // sessions on one network differ by key, and may by channel
+};
+
+class PeerRunner {
+ public:
+  // Opens the network (an InputError says why it could not) and starts the thread.
+  PeerRunner(Session& session, PeerOptions options, PeerNetwork network = {});
+  ~PeerRunner();  // leaves (the others free this peer's leases at once) and stops the thread
+  PeerRunner(const PeerRunner&) = delete;
+  PeerRunner& operator=(const PeerRunner&) = delete;
+
+  // Runs f(peer) under the session's lock, for reading the peer's state or calling its methods.
+  template <class F>
+  auto with_peer(F&& f) -> decltype(f(std::declval<Peer&>())) {
+    std::lock_guard<std::recursive_mutex> lock(session_.mutex());
+    return f(static_cast<Peer&>(*peer_));
+  }
+  // Leaves and stops; the session is the users' own again (safe to call twice).
+  void stop();
+  bool running() const { return running_.load(); }
+  // Why the thread stopped by itself (empty while it runs or if it was stopped).
+  std::string error() const;
+
+ private:
+  class Transport;
+  void run();
+  Session& session_;
+  std::unique_ptr<detail::LcmBus> bus_;
+  std::unique_ptr<Transport> transport_;
+  std::unique_ptr<Peer> peer_;
+  std::atomic<bool> stop_{false}, running_{false};
+  mutable std::mutex error_mutex_;
+  std::string error_;
+  std::thread thread_;
+};
+
+}  // namespace kiji

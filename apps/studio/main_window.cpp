@@ -279,7 +279,7 @@ void MainWindow::update_status() {
   status_vertices_->setText(QString("%1 vertices").arg(frame ? frame->vertices : 0));
   const std::string tool = studio_.tool(kButtonPrimary);
   status_tool_->setText(QString("tool: %1").arg(tool.empty() ? "none" : QString::fromStdString(studio_.tools().info(tool).label)));
-  // Undo and redo stay enabled: the frame says what was undoable up to 16 ms ago, and a shortcut
+  // Undo and redo stay enabled: the frame says what was undoable a frame ago, and a shortcut
   // pressed meanwhile must not be lost; with nothing to undo, the status bar says so.
   if (frame && run_action_->isChecked() != frame->simulating) run_action_->setChecked(frame->simulating);
 }

@@ -13,7 +13,7 @@ double seconds_now() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 // How long the thread waits for a message before it ticks anyway: the engine's timers and the
-// shared clock need a tick a millisecond or so; a frame is 16 ms or more.
+// shared clock need ticks much finer than a frame, and waiting longer would delay their steps.
 constexpr int kWaitMs = 1;
 }  // namespace
 

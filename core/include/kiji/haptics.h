@@ -128,7 +128,7 @@ class ScriptedDevice : public InputDevice {
 
 // How the haptic loop shapes the force it sends. The tool's force is a virtual coupling: a spring
 // from the pen to the cloth as the last simulation step left it (the snapshot), so between two
-// steps, 16 ms apart, it jumps where the cloth jumped. The loop low-pass filters it, clamps it to
+// steps, a frame apart, it jumps where the cloth jumped. The loop low-pass filters it, clamps it to
 // the device's maximum, and ramps it up from zero after start and after a change of the device's
 // workspace mapping, so the pen never jumps in the hand.
 struct HapticOptions {

@@ -696,9 +696,9 @@ inline void resolve_pair(SolverArrays& s, const SolverArrays::SelfPair& p, doubl
 //  2. those across two neighbouring slabs: first those across slabs 0-1, 2-3, 4-5, ... together,
 //     then those across 1-2, 3-4, ... (the pairs of one run and another's touch different slabs);
 //  3. the few that reach across more than two, in sequence.
-// Each run keeps the gathered order. With four slabs and the pairs across slabs in sequence, the
-// resolve scaled 2.1x on 16 threads, the least of a step's phases. The slabs do not depend on the
-// thread count, nor so the result.
+// Each run keeps the gathered order. Sixteen slabs give sixteen threads work in the first stage and
+// eight in the second, and leave few pairs for the third. The slabs do not depend on the thread
+// count, nor so the result.
 void partition_self_pairs(SolverArrays& s) {
   const std::size_t np = s.self_pairs.size();
   s.self_runs.assign(1, 0);

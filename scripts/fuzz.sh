@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Runs one libFuzzer target for a while:  scripts/fuzz.sh TARGET SECONDS [libFuzzer options...]
 #
-#   TARGET   fuzz_garment_obj, fuzz_garment_glb, fuzz_body, fuzz_journal, fuzz_png, fuzz_plugin_meta
-#            (tests/fuzz/; its seeds are tests/fuzz/corpus/TARGET/)
+#   TARGET   fuzz_garment_obj, fuzz_garment_glb, fuzz_body, fuzz_journal, fuzz_png, fuzz_plugin_meta,
+#            fuzz_peer, fuzz_session_file, fuzz_operation (tests/fuzz/; its seeds are tests/fuzz/corpus/TARGET/)
 #
 # Builds the target in build-asan/ (clang-14, AddressSanitizer + UndefinedBehaviorSanitizer) if
 # needed, fuzzes from the seeds and what earlier runs found (build-asan/fuzz/corpus/TARGET/, kept

@@ -11,6 +11,10 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <mutex>
+#include <thread>
+
 using namespace kiji;
 
 namespace {
@@ -153,6 +157,56 @@ TEST(Session, TwoUsersStrokeAtOnceEachWithTheirOwnTool) {
   const ParamSet cut = a.params_for("cut");
   a.apply("cut", line(Vec3(0.5, -0.1, 0), Vec3(0.5, 1.1, 0), 1, a.time())[0], &cut, 3);
   EXPECT_EQ(a.active_tool(3), "cut");
+}
+
+// What an app's simulation thread and a script (Python with the GIL released) do to one session:
+// each use under Session::mutex(). The result is the same as the log replayed on one thread, and the
+// script's stroke did what it does alone. ThreadSanitizer runs this test (scripts/sanitize.sh tsan).
+TEST(Session, TwoThreadsShareOneSessionThroughItsLock) {
+  auto s = std::make_shared<Session>(plugins());
+  s->add_garment(make_rectangle(0.6, 0.6, 13, 13));
+  SolverParams p;
+  p.gravity = Vec3::Zero();
+  s->set_solver_params(p);
+  std::atomic<bool> script_done{false};
+  std::size_t vertices_seen = 0;
+  std::thread simulation([&] {
+    while (!script_done) {
+      std::lock_guard<std::recursive_mutex> lock(s->mutex());
+      s->step();
+    }
+  });
+  std::thread script([&] {
+    ParamSet params;
+    {
+      std::lock_guard<std::recursive_mutex> lock(s->mutex());
+      params = s->params_for("pinch", {{"stiffness", 300.0}});
+    }
+    for (int i = 0; i <= 20; ++i) {
+      std::lock_guard<std::recursive_mutex> lock(s->mutex());
+      ToolEvent e;
+      e.phase = i == 0 ? Phase::Begin : (i == 20 ? Phase::End : Phase::Move);
+      e.time = s->time() + 1.0 / 60;
+      e.position = Vec3(0, 0, 0.01 * i);
+      e.buttons = kButtonPrimary;
+      s->apply("pinch", e, i == 0 ? &params : nullptr);
+      vertices_seen = s->garment(0).mesh().number_of_vertices();  // a read between steps, as g.positions
+    }
+    script_done = true;
+  });
+  script.join();
+  simulation.join();
+
+  EXPECT_EQ(vertices_seen, 13u * 13u) << "the script read the whole garment between steps";
+  EXPECT_GT(s->steps(), 20u) << "both threads stepped the clock";
+  double lifted = 0;
+  const Garment& g = s->garment(0);
+  for (Vertex v : g.mesh().vertices())
+    if (g.position(v).head<2>().norm() < 0.05) lifted = std::max(lifted, g.position(v).z());
+  EXPECT_GT(lifted, 0.1) << "the pinched corner followed the pointer up";
+  Session again(plugins());
+  replay(again, operations_to_save(*s));
+  EXPECT_EQ(state(again), state(*s)) << "the log of the shared session replays to the same garment";
 }
 
 TEST(Session, ANewBodyReplacesTheOldOneForCollision) {

@@ -215,7 +215,11 @@ TEST(Stitch, TwoPanelsWithDifferentResolutionsJoinAlongTheSeam) {
   Garment b = make_rectangle(0.5, 1.0, 4, 7);    // its side x = 0 has 7 vertices
   b.transform(Eigen::Affine3d(Eigen::Translation3d(0.6, 0, 0)));
   const Vertex first_b = append_garment(g, b);
-  (void)first_b;
+  // b's vertex i is now first_b + i, with its position.
+  EXPECT_EQ(first_b.idx(), 6u * 11u);
+  EXPECT_EQ(g.mesh().number_of_vertices(), 6u * 11u + 4u * 7u);
+  for (Vertex v : b.mesh().vertices())
+    EXPECT_EQ(g.position(Vertex(first_b.idx() + v.idx())), b.position(v)) << "vertex " << v.idx() << " of b";
   EXPECT_EQ(g.count_pieces(), 2u);
   const Garment before = g;
   std::vector<Vertex> a_side, b_side;

@@ -61,7 +61,11 @@ def test_each_user_has_a_stroke_of_their_own():
     s.end((0.8, 0.8, 0.0), user=2)
     s.end((0.2, 0.2, 0.05), user=1)
     assert [op.user for op in s.operations if op.kind == "tool"] == [1, 2, 1, 2, 1]
-    assert g.texture is not None
+    # User 2's paint is where user 2 painted, in red, and not under user 1's pinch.
+    t = g.texture
+    n = t.shape[0]
+    assert list(t[int(0.8 * n), int(0.8 * n)][:3]) == [255, 0, 0]
+    assert list(t[int(0.2 * n), int(0.2 * n)][:3]) != [255, 0, 0]
 
 
 def test_bad_events_are_refused_with_what_to_do_and_change_nothing():

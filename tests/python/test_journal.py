@@ -20,10 +20,11 @@ def test_undo_redo():
     assert s.journal == [] and not s.can_redo
     design(s)
     assert len(s.journal) == 3 and [j.tool for j in s.journal] == ["cut", "paint", "pinch"]
+    painted = g.texture
     assert s.undo() and s.undo()
     assert len(s.journal) == 1 and g.piece_count == 2 and g.texture is None
     assert s.redo()
-    assert g.texture is not None
+    np.testing.assert_array_equal(g.texture, painted)  # redo brings back the very texels painted
     s.undo()
     s.pin([(0.5, 0.5, 0)])  # a new stroke drops what was undone
     assert not s.can_redo and [j.tool for j in s.journal] == ["cut", "pin"]

@@ -66,6 +66,7 @@ py::dict peer_info(const PeerInfo& p) {
   d["sequencer"] = p.sequencer;
   d["joined"] = p.joined;
   d["step"] = p.step;
+  d["hash_agrees"] = p.hash_agrees;
   d["pointer"] = vec3_array(p.presence.pointer);
   d["buttons"] = p.presence.buttons;
   d["eye"] = vec3_array(p.presence.eye);

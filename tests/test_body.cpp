@@ -400,6 +400,25 @@ TEST(BodyImportErrors, APlyHeaderThatNeverEndsIsRefusedNotReadForEver) {
   EXPECT_NE(msg.find("its PLY header has no end_header line"), std::string::npos) << msg;
 }
 
+TEST(BodyImportErrors, APlyFoundByItsContentWhoseHeaderLineNeverEndsIsRefused) {
+  // A byte before "ply" and no line break after end_header: assimp still reads it as PLY and
+  // never returns (found by fuzz_body).
+  const std::string bytes("\x04ply\nformat ascii 1.0\nlement face 4\nproperty list uchar int vertex_indices\n"
+                          "end_header1 3\n3 1 2 3\n3 2 0 3\n");
+  for (const char* name : {"hang.dat", "hang.ply"}) {
+    const std::string path = tmp_file(name, bytes);
+    const std::string msg = input_error([&] { Body::load(path); });
+    EXPECT_NE(msg.find("its PLY header has no end_header line"), std::string::npos) << name << ": " << msg;
+  }
+  // An OBJ whose comment says "simply" is not taken for PLY.
+  const std::string obj = tmp_file("simply.obj", "# simply a triangle\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  try {
+    Body::load(obj);
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).find("PLY"), std::string::npos) << e.what();
+  }
+}
+
 TEST(BodyImportErrors, LinesOnlyAndPointsOnlyHaveNoTriangles) {
   for (const char* f : {"/OBJ/testline.obj", "/OBJ/testpoints.obj"}) {
     const std::string msg = input_error([&] { Body::load(models + f); });

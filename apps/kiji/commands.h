@@ -11,5 +11,6 @@ int tools_command(const std::vector<std::string>& args);
 int bench_command(const std::vector<std::string>& args);
 int recover_command(const std::vector<std::string>& args);
 int peer_command(const std::vector<std::string>& args);
+int peer_bench_command(const std::vector<std::string>& args);
 
 }  // namespace kiji::cli

@@ -18,6 +18,7 @@ const char* kUsage =
     "  drape     drop a flat garment on a body, let it settle, write the result\n"
     "  tools     list the tool plugins found, with their parameters\n"
     "  bench     measure this machine: the paper's tables, Bullet's cloth, haptics, scaling\n"
+    "            ('kiji bench peers': a design session shared over LCM, the paper's table 3)\n"
     "  recover   rebuild a design session from its session file (an autosave) after a crash\n"
     "  peer      host or join a design session shared with others over the network\n"
     "  version   print Kiji's version\n"
@@ -37,6 +38,10 @@ int main(int argc, char** argv) {
   try {
     if (command == "drape") return kiji::cli::drape_command(args);
     if (command == "tools") return kiji::cli::tools_command(args);
+    if (command == "bench" && !args.empty() && args[0] == "peers") {
+      args.erase(args.begin());
+      return kiji::cli::peer_bench_command(args);
+    }
     if (command == "bench") return kiji::cli::bench_command(args);
     if (command == "recover") return kiji::cli::recover_command(args);
     if (command == "peer") return kiji::cli::peer_command(args);

@@ -44,6 +44,10 @@ constexpr const char* kPeerHelp =
     "  --url URL           the LCM network [udpm://239.255.76.67:7667?ttl=0: this host only; ttl=1: the LAN]\n"
     "  --channel NAME      the LCM channel [KIJI_PEER]\n"
     "  --replay FILE       play a journal's strokes as this peer's user, at their times on the shared clock\n"
+    "  --play-channel NAME propose the recorded operations that arrive on this LCM channel as this peer's\n"
+    "                      user's: 'lcm-logplayer SESSION_FILE' plays a saved session (channel KIJI_OPS) to\n"
+    "                      the running session; not authenticated, so only on a network you trust\n"
+    "  --loss P            drop P % of the messages this peer receives, at random (to try a lossy network)\n"
     "  --seconds S         run until the shared clock reaches S simulated seconds (the host stops it there)\n"
     "                      and every peer has the same state hash, then leave [default: until Ctrl-C]\n"
     "  --timeout T         give up after T seconds of wall time, saying so [60 + 3 S]\n"
@@ -64,7 +68,7 @@ struct ReplayEvent {
 int peer_command(const std::vector<std::string>& argv) {
   const Args args(argv,
                   {"--key-file", "--journal", "--garment", "--name", "--url", "--channel", "--replay", "--seconds",
-                   "--timeout", "--out"},
+                   "--timeout", "--out", "--play-channel", "--loss"},
                   {"--host", "--json", "--help", "-h"});
   if (args.has("--help") || args.has("-h")) {
     std::fputs(kPeerHelp, stdout);
@@ -97,6 +101,10 @@ int peer_command(const std::vector<std::string>& argv) {
   PeerNetwork network;
   network.url = args.get("--url", network.url);
   network.channel = args.get("--channel", network.channel);
+  network.play_channel = args.get("--play-channel", "");
+  const double loss = args.number("--loss", 0);
+  if (!(loss >= 0 && loss <= 90)) throw UsageError("--loss must be a percentage from 0 to 90");
+  network.loss = loss / 100;
 
   std::vector<JournalStroke> replay;
   if (args.has("--replay")) replay = load_journal(args.get("--replay", ""));
@@ -201,6 +209,10 @@ int peer_command(const std::vector<std::string>& argv) {
                {"refusals", refusals},
                {"divergences", peer.divergences().size()},
                {"replayed_events", next},
+               {"garments", session.garment_count()},
+               {"played", runner.played()},
+               {"play_dropped", runner.play_dropped()},
+               {"play_error", runner.play_error()},
                {"messages_sent", st.sent},
                {"messages_received", st.received},
                {"bytes_sent", st.bytes_sent},

@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <string_view>
 
 namespace kiji::detail {
 
@@ -104,6 +105,18 @@ std::uint32_t le32(const char* p) {
   return u[0] | (u[1] << 8) | (u[2] << 16) | (std::uint32_t(u[3]) << 24);
 }
 
+// The word "ply" ending a line near the start of a file, as assimp finds a PLY file by its content
+// (it need not be the very first bytes).
+bool ply_magic(std::string_view head) {
+  head = head.substr(0, 16);
+  for (std::size_t at = head.find("ply"); at != std::string_view::npos; at = head.find("ply", at + 1)) {
+    const bool starts = at == 0 || !std::isalnum(static_cast<unsigned char>(head[at - 1]));
+    const bool ends = at + 3 < head.size() && (head[at + 3] == '\n' || head[at + 3] == '\r');
+    if (starts && ends) return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 void check_before_assimp(const std::string& path, const std::string& what) {
@@ -129,13 +142,20 @@ void check_before_assimp(const std::string& path, const std::string& what) {
   } else if (ext == ".gltf") {
     in.seekg(0);
     check_gltf_json(std::string(std::istreambuf_iterator<char>(in), {}), what);
-  } else if (got >= 3 && std::memcmp(head, "ply", 3) == 0) {
-    // The header is text and short; a file whose first 64 KiB hold no end_header never ends it.
+  } else if (ext == ".ply" || ply_magic(std::string_view(head, static_cast<std::size_t>(got)))) {
+    // assimp takes a file for PLY by the word near its start, not only at it. The header is text and
+    // short; one whose first 64 KiB hold no whole end_header line never ends it (assimp then reads on
+    // without end).
+    in.clear();
     in.seekg(0);
     std::string start(64 * 1024, '\0');
     in.read(start.data(), static_cast<std::streamsize>(start.size()));
     start.resize(static_cast<std::size_t>(in.gcount()));
-    if (start.find("\nend_header") == std::string::npos)
+    const std::size_t at = start.find("\nend_header");
+    const std::size_t after = at == std::string::npos ? at : at + 11;
+    const bool line_ends = after != std::string::npos && after < start.size() &&
+                           (start[after] == '\n' || (start[after] == '\r' && after + 1 < start.size() && start[after + 1] == '\n'));
+    if (!line_ends)
       throw InputError(what + ": its PLY header has no end_header line in its first 64 KiB; export the file again");
   }
 }

@@ -17,12 +17,17 @@ constexpr std::size_t kMaxDatagram = 65000;
 struct LcmBus::Impl {
   lcm_t* lcm = nullptr;
   lcm_subscription_t* subscription = nullptr;
+  lcm_subscription_t* side_subscription = nullptr;
   std::string channel;
-  std::vector<std::string> inbox;
+  std::vector<std::string> inbox, side;
 
   static void on_message(const lcm_recv_buf_t* buffer, const char*, void* user) {
     auto* self = static_cast<Impl*>(user);
     self->inbox.emplace_back(static_cast<const char*>(buffer->data), buffer->data_size);
+  }
+  static void on_side_message(const lcm_recv_buf_t* buffer, const char*, void* user) {
+    auto* self = static_cast<Impl*>(user);
+    self->side.emplace_back(static_cast<const char*>(buffer->data), buffer->data_size);
   }
 };
 
@@ -42,7 +47,18 @@ LcmBus::LcmBus(const std::string& url, const std::string& channel) : impl_(std::
   lcm_subscription_set_queue_capacity(impl_->subscription, kQueueMessages);
 }
 
+void LcmBus::listen_also(const std::string& channel) {
+  if (impl_->side_subscription || channel == impl_->channel)
+    throw InputError("the LCM channel '" + channel + "' cannot be a second channel of this bus");
+  impl_->side_subscription = lcm_subscribe(impl_->lcm, channel.c_str(), &Impl::on_side_message, impl_.get());
+  if (!impl_->side_subscription) throw InputError("could not subscribe to LCM channel '" + channel + "'");
+  lcm_subscription_set_queue_capacity(impl_->side_subscription, kQueueMessages);
+}
+
+std::vector<std::string> LcmBus::side_messages() { return std::move(impl_->side); }
+
 LcmBus::~LcmBus() {
+  if (impl_->side_subscription) lcm_unsubscribe(impl_->lcm, impl_->side_subscription);
   if (impl_->subscription) lcm_unsubscribe(impl_->lcm, impl_->subscription);
   lcm_destroy(impl_->lcm);
 }
@@ -54,6 +70,7 @@ bool LcmBus::publish(const std::string& bytes) {
 
 std::vector<std::string> LcmBus::receive(int timeout_ms) {
   impl_->inbox.clear();
+  impl_->side.clear();
   if (lcm_handle_timeout(impl_->lcm, timeout_ms) > 0)
     while (lcm_handle_timeout(impl_->lcm, 0) > 0) {
     }

@@ -22,6 +22,11 @@ class LcmBus {
   bool publish(const std::string& bytes);
   // Waits up to `timeout_ms` for a message, then takes every message already waiting.
   std::vector<std::string> receive(int timeout_ms);
+  // Also subscribes to a second channel (a recording played to this bus); its messages are kept
+  // apart, for side_messages(). Throws InputError if LCM refuses.
+  void listen_also(const std::string& channel);
+  // The second channel's messages that came with the last receive().
+  std::vector<std::string> side_messages();
 
  private:
   struct Impl;

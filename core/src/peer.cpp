@@ -355,6 +355,12 @@ struct Peer::Impl {
     }
   }
 
+  // The sequencer's clock as last heard (0 if unknown).
+  std::uint64_t sequencer_clock() const {
+    auto k = peers.find(sequencer);
+    return k != peers.end() && k->second.sequencer ? k->second.step : 0;
+  }
+
   // The slowest joined peer's clock: the sequencer runs at most max_lag_steps ahead of it.
   std::uint64_t slowest() const {
     std::uint64_t s = session.steps();
@@ -885,9 +891,14 @@ struct Peer::Impl {
       }
       const std::uint64_t stop_at = stop ? stop : opt.stop_step;
       if (stop_at && s >= stop_at) break;
-      if (opt.real_time && now + 1e-9 < next_step_time) break;
+      // In real time a peer behind the sequencer's clock catches up at once: otherwise a peer that
+      // joined a few frames late would apply every order those frames after the others, for good.
+      const bool behind = !seq && sequencer_clock() > s;
+      if (opt.real_time && !behind && now + 1e-9 < next_step_time) break;
       session.step(this);
-      if (opt.real_time) next_step_time = std::max(next_step_time + 1.0 / session.frame_rate(), now - 0.25);
+      if (opt.real_time)
+        next_step_time = behind ? now + 1.0 / session.frame_rate()
+                                : std::max(next_step_time + 1.0 / session.frame_rate(), now - 0.25);
       if (seq) {
         announced = std::max(announced, session.steps() + static_cast<std::uint64_t>(opt.lookahead_steps));
         if (stop_at) announced = std::min(announced, std::max(stop_at, last_exec));
@@ -1055,6 +1066,8 @@ void Peer::on_local(const Operation& op) {
   pop.operation = encode_operation(own);
   impl_->propose_local(op.step, encode(pop));
 }
+
+void Peer::propose(const Operation& op) { on_local(op); }
 
 void Peer::receive(std::string_view bytes, double now) {
   impl_->now = now;

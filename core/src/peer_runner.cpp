@@ -1,10 +1,12 @@
 #include "kiji/peer_runner.h"
 
 #include "kiji/error.h"
+#include "kiji/session_file.h"
 #include "lcm_bus.h"
 
 #include <chrono>
 #include <exception>
+#include <random>
 
 namespace kiji {
 
@@ -29,7 +31,11 @@ class PeerRunner::Transport : public PeerTransport {
 PeerRunner::PeerRunner(Session& session, PeerOptions options, PeerNetwork network) : session_(session) {
   options.validate();
   if (network.channel.empty()) throw InputError("a peer network needs a channel name");
+  if (!(network.loss >= 0 && network.loss <= 0.9))
+    throw InputError("a peer network's loss must be a share between 0 and 0.9, not " + std::to_string(network.loss));
+  loss_ = network.loss;
   bus_ = std::make_unique<detail::LcmBus>(network.url, network.channel);
+  if (!network.play_channel.empty()) bus_->listen_also(network.play_channel);
   transport_ = std::make_unique<Transport>(*bus_);
   {
     std::lock_guard<std::recursive_mutex> lock(session_.mutex());
@@ -42,12 +48,16 @@ PeerRunner::PeerRunner(Session& session, PeerOptions options, PeerNetwork networ
 PeerRunner::~PeerRunner() { stop(); }
 
 void PeerRunner::run() {
+  std::mt19937_64 random(std::random_device{}());
+  std::uniform_real_distribution<double> uniform(0, 1);
   try {
     while (!stop_.load()) {
       std::vector<std::string> messages = bus_->receive(kWaitMs);
       std::lock_guard<std::recursive_mutex> lock(session_.mutex());
       const double now = seconds_now();
-      for (const std::string& m : messages) peer_->receive(m, now);
+      for (const std::string& m : messages)
+        if (loss_ == 0 || uniform(random) >= loss_) peer_->receive(m, now);
+      for (const std::string& record : bus_->side_messages()) play(record);
       peer_->tick(now);
     }
   } catch (const std::exception& e) {
@@ -66,6 +76,33 @@ void PeerRunner::stop() {
     peer_->leave(seconds_now());
     peer_.reset();
   }
+}
+
+void PeerRunner::play(const std::string& record) {
+  Operation op;
+  std::string why;
+  if (!decode_session_record(record, op, why)) {
+  } else if (std::holds_alternative<op::Advance>(op.data) || std::holds_alternative<op::Checkpoint>(op.data)) {
+    why = std::string("a recorded '") + operation_kind(op.data) + "' is the recording's own, not a change to share";
+  } else if (!peer_->joined()) {
+    why = "a recorded operation came before this peer had the shared session";
+  } else {
+    op.step = session_.steps();
+    op.user = 0;
+    // The recording's clock is not the shared one: its events happen now.
+    if (auto* input = std::get_if<op::ToolInput>(&op.data)) input->event.time = session_.time();
+    peer_->propose(op);
+    ++played_;
+    return;
+  }
+  ++play_dropped_;
+  std::lock_guard<std::mutex> lock(error_mutex_);
+  play_error_ = why;
+}
+
+std::string PeerRunner::play_error() const {
+  std::lock_guard<std::mutex> lock(error_mutex_);
+  return play_error_;
 }
 
 std::string PeerRunner::error() const {

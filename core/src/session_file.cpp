@@ -175,4 +175,8 @@ Recovered recover(const std::string& path, std::shared_ptr<ToolRegistry> registr
   return out;
 }
 
+bool decode_session_record(std::string_view bytes, Operation& out, std::string& why) {
+  return decode_record(bytes.data(), bytes.size(), out, why);
+}
+
 }  // namespace kiji

@@ -35,6 +35,10 @@ class PyPeer {
     runner_.reset();
   }
   bool closed() const { return !runner_; }
+  py::tuple played() const {
+    if (!runner_) return py::make_tuple(0, 0, "");
+    return py::make_tuple(runner_->played(), runner_->play_dropped(), runner_->play_error());
+  }
   std::string error() const { return runner_ ? runner_->error() : std::string(); }
   // Polls `ready` every 10 ms with the GIL released; false at the timeout.
   bool wait(const std::function<bool(Peer&)>& ready, double timeout) {
@@ -62,6 +66,7 @@ py::dict peer_info(const PeerInfo& p) {
   d["sequencer"] = p.sequencer;
   d["joined"] = p.joined;
   d["step"] = p.step;
+  d["hash_agrees"] = p.hash_agrees;
   d["pointer"] = vec3_array(p.presence.pointer);
   d["buttons"] = p.presence.buttons;
   d["eye"] = vec3_array(p.presence.eye);
@@ -81,7 +86,8 @@ the shared one (Session.step raises: wait with wait_step or wait_converged inste
 leaving a `with` block) gives the session back to its users.)doc");
   p.def(py::init([](const SessionPtr& session, const std::string& key, bool host, const std::string& name,
                     const std::string& url, const std::string& channel, std::uint64_t stop_step,
-                    double lease_radius, double lease_seconds, int lookahead_steps, int hash_interval) {
+                    double lease_radius, double lease_seconds, int lookahead_steps, int hash_interval,
+                    const std::string& play_channel, double loss) {
           PeerOptions o;
           o.key = key;
           o.host = host;
@@ -94,14 +100,20 @@ leaving a `with` block) gives the session back to its users.)doc");
           PeerNetwork n;
           n.url = url;
           n.channel = channel;
+          n.play_channel = play_channel;
+          n.loss = loss;
           return std::make_shared<PyPeer>(session, std::move(o), std::move(n));
         }),
         py::arg("session"), py::kw_only(), py::arg("key"), py::arg("host") = false, py::arg("name") = "peer",
         py::arg("url") = PeerNetwork{}.url, py::arg("channel") = PeerNetwork{}.channel, py::arg("stop_step") = 0,
         py::arg("lease_radius") = PeerOptions{}.lease_radius, py::arg("lease_seconds") = PeerOptions{}.lease_hold_seconds,
         py::arg("lookahead_steps") = PeerOptions{}.lookahead_steps, py::arg("hash_interval") = PeerOptions{}.hash_interval,
+        py::arg("play_channel") = "", py::arg("loss") = 0.0,
         "Shares `session` (host=True: start the shared session from its state; else join, and the "
-        "session is replaced by the shared state). `key`: the session's secret, 16 characters or more.");
+        "session is replaced by the shared state). `key`: the session's secret, 16 characters or more. "
+        "`play_channel`: an LCM channel whose recorded operations (a session file played by "
+        "lcm-logplayer: 'KIJI_OPS') this peer proposes as its user's. `loss`: the share of arriving "
+        "messages dropped at random (0 to 0.9), to try a lossy network.");
   p.def_property_readonly("id", [](PyPeer& self) { return self.with([](Peer& q) { return q.id(); }); },
                           "This peer's id (its user's id in the shared session).");
   p.def_property_readonly("joined", [](PyPeer& self) { return self.with([](Peer& q) { return q.joined(); }); },
@@ -119,6 +131,9 @@ leaving a `with` block) gives the session back to its users.)doc");
   p.def_property_readonly("stop_step", [](PyPeer& self) { return self.with([](Peer& q) { return q.stop_step(); }); },
                           "The step the shared clock stops at (0: never).");
   p.def_property_readonly("session", &PyPeer::session, "The session this peer shares.");
+  p.def_property_readonly("played", &PyPeer::played,
+                          "Recorded operations taken from the play channel and proposed, and those dropped: "
+                          "(played, dropped, the last reason one was dropped).");
   p.def_property_readonly("closed", &PyPeer::closed, "Whether close() was called.");
   p.def_property_readonly("error", &PyPeer::error, "Why the peer's thread stopped by itself ('' while it runs).");
   p.def("state_hash", [](PyPeer& self) { return self.with([](Peer& q) { return q.state_hash(); }); },

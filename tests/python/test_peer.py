@@ -50,3 +50,16 @@ def test_bad_peer_options_are_refused_and_the_session_stays_usable():
         kiji.Peer(s, key="k" * 32, host=True, url="nonsense://nowhere")
     s.step()
     assert s.steps == 1
+
+
+def test_a_recorded_session_played_with_lcm_logplayer_reaches_every_peer():
+    out = run_in_namespace("peer_play.py")
+    assert out["joined"] and out["player_rc"] == 0
+    # Every change of the recording was proposed; its own time passing was left out, saying why.
+    assert out["played"] == out["want_played"] and out["want_played"] >= 24, out
+    assert out["play_dropped"] == out["kinds"].count("advance") and "recording" in out["play_error"]
+    # Both peers have the played square, lifted where the recorded pen lifted it, and agree.
+    assert out["garments"] == [2, 2] and out["names"][1] == "played"
+    assert out["lift"] > 0.15, out["lift"]
+    assert out["gravity"] == [0.0, 0.0, 0.0]
+    assert out["stopped"] and out["converged"] and out["hashes"][0] == out["hashes"][1]

@@ -151,6 +151,9 @@ class Peer {
   void lease(std::size_t garment, const Vec3& center, double radius, double seconds);
   // Lets go of every lease this peer's user holds.
   void release();
+  // Proposes an operation as this peer's user's, as the session's gate does with the user's own
+  // changes (op.step is the step it was made at): a recorded session played to this peer goes so.
+  void propose(const Operation& op);
 
   const PeerStats& stats() const;
   const std::vector<PeerRefusal>& refusals() const;

@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace kiji {
@@ -39,6 +40,10 @@ void save_session(const Session& session, const std::string& path);
 // left out and said in `report`; records on other channels are skipped. Throws InputError for a
 // file that cannot be read or is not a session file (no record on KIJI_OPS where it should start).
 std::vector<Operation> load_session(const std::string& path, SessionFileReport* report = nullptr);
+
+// One record of a session file (also the bytes of one KIJI_OPS message, as lcm-logplayer plays it)
+// as an operation. Returns false, saying why, for bytes that are not a whole, intact record.
+bool decode_session_record(std::string_view bytes, Operation& out, std::string& why);
 
 // Appends every operation the session applies to a session file, from construction until
 // destruction. An existing file is appended to only with `append` (recover() does so); otherwise a

@@ -195,7 +195,7 @@ TEST(Collision, InsideAgreesWithTheWindingNumberNearAGameCharacter) {
     face_wrong += near.hit && (near.distance < 0) != in;
   }
   EXPECT_GT(tested, 2900);
-  EXPECT_GT(inside, 1000);
+  EXPECT_GT(inside, 500);
   EXPECT_EQ(wrong, 0) << "of " << tested << " points";
   EXPECT_GT(face_wrong, 10) << "the faults this test is for: the closest face's side is wrong there";
 }

@@ -89,7 +89,9 @@ void set_body(SolverArrays& s, const Body* body) {
     s.body_boxes.push_back(b);
     s.body_bounds.extend(b);
   }
-  find_body_points(s, *body);
+  // Only a body rounded from a low-poly one has points thinner than the cloth's spacing after
+  // rounding; a fine body's fingertips only catch cloth pulled past them (a sewn armhole).
+  if (body->report().smoothing > 0) find_body_points(s, *body);
 }
 
 // --- The body's sharp points against the cloth's triangles ---

@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <future>
 #include <stdexcept>
 #include <thread>
@@ -237,4 +238,76 @@ TEST(SimulationLoop, APausedSessionKeepsItsClothStill) {
   EXPECT_EQ(b->number, a->number) << "nothing changed: no new frame for the UI to draw";
   loop.call([](Session& session) { session.set_simulating(true); });
   ASSERT_TRUE(wait_until([&] { return loop.frame()->number > b->number + 3; })) << "and frames again once it runs";
+}
+
+TEST(SimulationLoop, ASharedSessionIsSteppedByItsPeerAndTheDevicesStrokesAreProposed) {
+  auto s = hanging_cloth();
+  // A stand-in for a peer: the gate collects what the session's user does; the "network" thread
+  // applies it a few steps later, in order, and alone steps the clock.
+  std::vector<Operation> proposed;
+  int gate_owner = 0;
+  {
+    std::lock_guard<std::recursive_mutex> lock(s->mutex());
+    s->set_simulating(false);  // the cloth stays where the pen finds it
+    s->set_gate([&](const Operation& op) { proposed.push_back(op); }, &gate_owner);
+  }
+  std::atomic<bool> peer_running{true};
+  std::atomic<std::uint64_t> peer_steps{0};
+  std::size_t applied = 0;
+  std::thread peer([&] {
+    while (peer_running.load()) {
+      {
+        std::lock_guard<std::recursive_mutex> lock(s->mutex());
+        for (; applied < proposed.size(); ++applied) s->perform(proposed[applied]);
+        s->step(&gate_owner);
+        ++peer_steps;
+      }
+      sleep_ms(16);
+    }
+  });
+  ScriptedDevice device([](double t) {
+    ToolEvent e;
+    const double u = std::clamp((t - 0.1) / 0.25, 0.0, 1.0);
+    e.position = Vec3(0.5, 1.0 + 0.1 * u, 0.5);
+    e.buttons = (t > 0.1 && t < 0.4) ? kButtonPrimary : 0u;
+    return e;
+  });
+  HapticLoop haptics(device);
+  SimulationLoop loop(s, 60);
+  loop.set_tool(kButtonPrimary, "pinch", s->params_for("pinch", {{"stiffness", 500.0}}));
+  loop.attach(&haptics);
+  haptics.start();
+  loop.start();
+  ASSERT_TRUE(wait_until([&] { return device.forces_received() > 600; }));
+  const auto shared_frame = loop.frame();
+  std::uint64_t steps_shared = 0, stepped_by_peer = 0;
+  {
+    auto lock = loop.hold();
+    steps_shared = s->steps();
+    stepped_by_peer = peer_steps.load();
+    EXPECT_TRUE(s->stroke_tool().empty()) << "the stroke ended with the button";
+    EXPECT_EQ(applied, proposed.size());
+  }
+  EXPECT_EQ(steps_shared, stepped_by_peer) << "every step of the shared clock was the peer's";
+  EXPECT_TRUE(loop.take_messages().empty()) << "the loop neither stepped nor failed while shared";
+  const std::vector<JournalStroke> strokes = journal_strokes(s->journal());
+  ASSERT_EQ(strokes.size(), 1u) << "the pen's stroke went through the gate and was applied in its turn";
+  EXPECT_EQ(strokes[0].events.front().phase, Phase::Begin);
+  EXPECT_EQ(strokes[0].events.back().phase, Phase::End);
+  EXPECT_GT(strokes[0].events.size(), 5u);
+  EXPECT_GT(shared_frame->time, 0.3) << "the frames follow the clock the peer steps";
+
+  // The peer goes: the session is the user's again, and the loop steps it.
+  peer_running = false;
+  peer.join();
+  {
+    auto lock = loop.hold();
+    s->clear_gate();
+  }
+  ASSERT_TRUE(wait_until([&] {
+    auto lock = loop.hold();
+    return s->steps() > steps_shared + 5;
+  }));
+  loop.stop();
+  haptics.stop();
 }

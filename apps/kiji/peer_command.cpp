@@ -11,10 +11,10 @@
 #include "kiji/pattern.h"
 #include "kiji/peer_runner.h"
 #include "kiji/session.h"
+#include "kiji/session_key.h"
 
 #include <nlohmann/json.hpp>
 
-#include <sodium.h>
 
 #include <chrono>
 #include <cmath>
@@ -22,9 +22,7 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <map>
-#include <sstream>
 #include <thread>
 
 namespace kiji::cli {
@@ -54,32 +52,6 @@ constexpr const char* kPeerHelp =
 
 volatile std::sig_atomic_t g_interrupted = 0;
 void on_interrupt(int) { g_interrupted = 1; }
-
-std::string read_or_make_key(const std::string& path, bool may_make) {
-  if (!std::filesystem::exists(path)) {
-    if (!may_make)
-      throw InputError("the key file '" + path + "' does not exist: the host of the session makes it (kiji peer "
-                       "--host --key-file FILE); copy it here");
-    if (sodium_init() < 0) throw InputError("libsodium could not start");
-    unsigned char raw[32];
-    randombytes_buf(raw, sizeof raw);
-    char hex[65];
-    sodium_bin2hex(hex, sizeof hex, raw, sizeof raw);
-    std::ofstream out(path);
-    if (!out) throw InputError("cannot write the key file '" + path + "'");
-    out << hex << "\n";
-    out.close();
-    std::filesystem::permissions(path, std::filesystem::perms::owner_read | std::filesystem::perms::owner_write);
-    std::fprintf(stderr, "kiji peer: made a new session key in %s: give it to the peers who join\n", path.c_str());
-  }
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  std::string key = text.str();
-  while (!key.empty() && (key.back() == '\n' || key.back() == '\r' || key.back() == ' ')) key.pop_back();
-  if (key.size() < 16) throw InputError("the key in '" + path + "' is shorter than 16 characters");
-  return key;
-}
 
 struct ReplayEvent {
   double at = 0;  // seconds after the replay starts
@@ -115,7 +87,11 @@ int peer_command(const std::vector<std::string>& argv) {
   else if (host && !args.has("--journal")) garment_spec = RectSpec::parse("rect:0.6,0.6,0.02");
 
   PeerOptions options;
-  options.key = read_or_make_key(args.get("--key-file", ""), host);
+  bool made_key = false;
+  options.key = read_session_key(args.get("--key-file", ""), host, &made_key);
+  if (made_key)
+    std::fprintf(stderr, "kiji peer: made a new session key in %s: give it to the peers who join\n",
+                 args.get("--key-file", "").c_str());
   options.host = host;
   options.name = args.get("--name", host ? "host" : "peer");
   PeerNetwork network;
@@ -185,6 +161,13 @@ int peer_command(const std::vector<std::string>& argv) {
         } catch (const InputError& error) {
           std::fprintf(stderr, "kiji peer: a replayed event was refused: %s\n", error.what());
         }
+        // The others see where this user's pen is, as they would a person's.
+        PeerPresence presence;
+        presence.pointer = event.position;
+        presence.orientation = event.orientation;
+        presence.buttons = event.buttons;
+        presence.tool = e.stroke->tool;
+        peer.set_presence(presence);
       }
       // With a stop step: done once the strokes are all sent and every peer agrees there.
       agreed = peer.converged() && session.steps() >= stop_step && stop_step > 0 && next == events.size() &&

@@ -92,6 +92,26 @@ struct Run {
     if (o.save_journal) check(studio.save_journal(QString::fromStdString(*o.save_journal)), "--save-journal");
     if (o.save_session) check(studio.save_session(QString::fromStdString(*o.save_session)), "--save-session");
     if (o.export_garment) check(studio.export_garment(QString::fromStdString(*o.export_garment)), "--export");
+    if (o.save_peers) check(window.save_peers(QString::fromStdString(*o.save_peers)), "--save-peers");
+  }
+
+  void share() {
+    if (!o.host && !o.join) return;
+    PeerSettings settings;
+    settings.host = o.host;
+    if (o.url) settings.url = *o.url;
+    if (o.channel) settings.channel = *o.channel;
+    if (o.name) settings.name = *o.name;
+    if (o.key_file) settings.key_file = *o.key_file;
+    settings.stop_seconds = o.seconds;
+    check(studio.share_session(settings), o.host ? "--host" : "--join");
+  }
+
+  // A host's scripted run with --seconds is over once the shared clock stopped and every peer
+  // agrees there (as kiji peer's --seconds).
+  bool shared_run_done() const {
+    const auto view = studio.peer_view();
+    return view && view->stop_step > 0 && view->step >= view->stop_step && view->converged;
   }
 };
 
@@ -136,16 +156,32 @@ int main(int argc, char** argv) {
   run.set_up();
   studio.set_clock_running(true);
   window.show();
+  run.share();
   run.run_python();
 
   // A scripted run whose scene could not be set up stops here: what it would write would be wrong.
   if (options.quit_after && run.failures) return 1;
   if (options.benchmark) return run_benchmark(app, studio, window, options);
   if (options.quit_after) {
-    QTimer::singleShot(int(*options.quit_after * 1000), &app, [&] {
+    bool finished = false;
+    auto finish = [&] {
+      if (finished) return;
+      finished = true;
       run.write_outputs();
       app.exit(run.failures ? 1 : 0);
+    };
+    QTimer::singleShot(int(*options.quit_after * 1000), &app, [&] {
+      if (options.host && options.seconds > 0 && !run.shared_run_done())
+        std::fprintf(stderr, "kiji-studio: the shared clock had not stopped with every peer agreeing after --quit-after\n");
+      finish();
     });
+    if (options.host && options.seconds > 0) {
+      auto* done = new QTimer(&app);
+      QObject::connect(done, &QTimer::timeout, &app, [&] {
+        if (run.shared_run_done()) finish();
+      });
+      done->start(100);
+    }
   }
   return app.exec();
 }

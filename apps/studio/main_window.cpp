@@ -1,5 +1,6 @@
 #include "main_window.h"
 
+#include "peers_panel.h"
 #include "python_console.h"
 #include "tool_panel.h"
 
@@ -19,7 +20,13 @@
 #include <QDoubleSpinBox>
 #include <QFileDialog>
 #include <QFormLayout>
+#include <QColor>
+#include <QFile>
+#include <QHBoxLayout>
 #include <QInputDialog>
+#include <QJsonDocument>
+#include <QJsonObject>
+#include <QPushButton>
 #include <QLabel>
 #include <QLineEdit>
 #include <QMenuBar>
@@ -78,17 +85,30 @@ MainWindow::MainWindow(Studio& studio, QWidget* parent) : QMainWindow(parent), s
   console_dock_->setWidget(console_);
   addDockWidget(Qt::BottomDockWidgetArea, console_dock_);
 
+  peers_ = new PeersPanel(studio, this);
+  peers_dock_ = new QDockWidget("Peers", this);
+  peers_dock_->setObjectName("peers_dock");
+  peers_dock_->setWidget(peers_);
+  addDockWidget(Qt::RightDockWidgetArea, peers_dock_);
+  peers_dock_->hide();  // shown when the session is shared
+
   status_sim_ = new QLabel(this);
   status_fps_ = new QLabel(this);
   status_haptic_ = new QLabel(this);
   status_vertices_ = new QLabel(this);
   status_tool_ = new QLabel(this);
-  for (QLabel* l : {status_sim_, status_fps_, status_haptic_, status_vertices_, status_tool_}) statusBar()->addPermanentWidget(l);
+  status_shared_ = new QLabel(this);
+  for (QLabel* l : {status_sim_, status_fps_, status_haptic_, status_vertices_, status_tool_, status_shared_})
+    statusBar()->addPermanentWidget(l);
 
   build_menus();
   connect(&studio, &Studio::message, this, &MainWindow::on_message);
   connect(&studio, &Studio::scene_changed, viewport_, &Viewport::frame_all);
   connect(&studio, &Studio::device_changed, this, &MainWindow::sync_device_menu);
+  connect(&studio, &Studio::sharing_changed, this, [this] {
+    leave_action_->setEnabled(studio_.shared());
+    if (studio_.shared()) peers_dock_->show();
+  });
   connect(viewport_, &Viewport::gl_failed, this, [this](const QString& why) { on_message(why, true); });
   auto* timer = new QTimer(this);
   connect(timer, &QTimer::timeout, this, &MainWindow::update_status);
@@ -143,6 +163,14 @@ void MainWindow::build_menus() {
     if (!path.isEmpty()) save_picture(path);
   });
   file->addSeparator();
+  file->addAction("&Host session...", this, [this] { share_dialog(true); });
+  file->addAction("&Join session...", this, [this] { share_dialog(false); });
+  leave_action_ = file->addAction("&Leave session", this, [this] {
+    studio_.leave_session();
+    on_message("Left the shared session: the session is yours alone again", false);
+  });
+  leave_action_->setEnabled(false);
+  file->addSeparator();
   file->addAction("&Quit", QKeySequence::Quit, this, &QWidget::close);
 
   QMenu* edit = menuBar()->addMenu("&Edit");
@@ -178,6 +206,7 @@ void MainWindow::build_menus() {
   view->addSeparator();
   view->addAction(tools_dock_->toggleViewAction());
   view->addAction(console_dock_->toggleViewAction());
+  view->addAction(peers_dock_->toggleViewAction());
 
   QMenu* sim = menuBar()->addMenu("&Simulation");
   run_action_ = sim->addAction("&Run", QKeySequence(Qt::Key_Space), this, [this](bool on) { studio_.set_simulating(on); });
@@ -251,9 +280,10 @@ void MainWindow::on_message(const QString& text, bool error) {
 }
 
 QString MainWindow::status_text() const {
-  return QStringList{status_sim_->text(), status_fps_->text(), status_haptic_->text(), status_vertices_->text(),
-                     status_tool_->text()}
-      .join(" | ");
+  QStringList parts{status_sim_->text(), status_fps_->text(), status_haptic_->text(), status_vertices_->text(),
+                    status_tool_->text()};
+  if (!status_shared_->text().isEmpty()) parts << status_shared_->text();
+  return parts.join(" | ");
 }
 
 void MainWindow::update_status() {
@@ -278,6 +308,14 @@ void MainWindow::update_status() {
   }
   status_vertices_->setText(QString("%1 vertices").arg(frame ? frame->vertices : 0));
   const std::string tool = studio_.tool(kButtonPrimary);
+  if (const auto peers = studio_.peer_view()) {
+    int present = 0;
+    for (const PeerRow& p : peers->peers) present += p.present;
+    status_shared_->setText(!peers->joined ? QString("joining...")
+                                           : QString("shared with %1 other%2").arg(present - 1).arg(present == 2 ? "" : "s"));
+  } else {
+    status_shared_->setText(studio_.shared() ? "sharing..." : "");
+  }
   status_tool_->setText(QString("tool: %1").arg(tool.empty() ? "none" : QString::fromStdString(studio_.tools().info(tool).label)));
   // Undo and redo stay enabled: the frame says what was undoable a frame ago, and a shortcut
   // pressed meanwhile must not be lost; with nothing to undo, the status bar says so.
@@ -415,6 +453,94 @@ void MainWindow::phantom_settings_dialog() {
   phantom_options_.swap_buttons = swap->isChecked();
   studio_.set_force_gain(gain->value());
   if (studio_.device_kind() == DeviceKind::Phantom) studio_.use_device(DeviceKind::Phantom, phantom_options_);
+}
+
+}  // namespace kiji::studio
+
+namespace kiji::studio {
+
+void MainWindow::share_dialog(bool host) {
+  QDialog d(this);
+  d.setWindowTitle(host ? "Host session" : "Join session");
+  auto* form = new QFormLayout(&d);
+  const PeerSettings defaults;
+  auto* url = new QLineEdit(QString::fromStdString(defaults.url), &d);
+  url->setToolTip("The LCM network: ttl=0 keeps it on this computer, ttl=1 reaches the local network");
+  auto* channel = new QLineEdit(QString::fromStdString(defaults.channel), &d);
+  QString user = qEnvironmentVariable("USER");
+  auto* name = new QLineEdit(user.isEmpty() ? (host ? "host" : "peer") : user, &d);
+  name->setToolTip("Your name as the others see it, beside your pointer");
+  auto* key = new QLineEdit(&d);
+  key->setPlaceholderText(host ? "empty: a new key file is made" : "the key file the host gave you");
+  key->setToolTip(host ? "The session's shared secret; a file that does not exist is made (readable by you only): "
+                         "give it to those who join"
+                       : "The host's key file: only those who have it can join");
+  auto* browse = new QPushButton("Browse...", &d);
+  connect(browse, &QPushButton::clicked, &d, [&] {
+    const QString path = host ? QFileDialog::getSaveFileName(&d, "Key file", {}, "Keys (*.key);;All files (*)",
+                                                             nullptr, QFileDialog::DontConfirmOverwrite)
+                              : QFileDialog::getOpenFileName(&d, "Key file", {}, "Keys (*.key);;All files (*)");
+    if (!path.isEmpty()) key->setText(path);
+  });
+  auto* key_row = new QHBoxLayout;
+  key_row->addWidget(key);
+  key_row->addWidget(browse);
+  form->addRow("Network (URL)", url);
+  form->addRow("Channel", channel);
+  form->addRow("Your name", name);
+  form->addRow("Key file", key_row);
+  auto* buttons = new QDialogButtonBox(QDialogButtonBox::Ok | QDialogButtonBox::Cancel, &d);
+  buttons->button(QDialogButtonBox::Ok)->setText(host ? "Host" : "Join");
+  form->addRow(buttons);
+  connect(buttons, &QDialogButtonBox::accepted, &d, [&] {
+    if (!host && key->text().trimmed().isEmpty()) {
+      QMessageBox::warning(&d, "Join session", "Give the key file of the session (the host has it).");
+      return;
+    }
+    d.accept();
+  });
+  connect(buttons, &QDialogButtonBox::rejected, &d, &QDialog::reject);
+  if (d.exec() != QDialog::Accepted) return;
+  PeerSettings settings;
+  settings.host = host;
+  settings.url = url->text().trimmed().toStdString();
+  settings.channel = channel->text().trimmed().toStdString();
+  settings.name = name->text().trimmed().toStdString();
+  settings.key_file = key->text().trimmed().toStdString();
+  studio_.share_session(settings);
+}
+
+bool MainWindow::save_peers(const QString& path) {
+  peers_->refresh();
+  QJsonObject out;
+  const auto view = studio_.peer_view();
+  out["shared"] = studio_.shared();
+  out["summary"] = peers_->summary();
+  out["peers"] = peers_->rows();
+  if (view) {
+    out["joined"] = view->joined;
+    out["converged"] = view->converged;
+    out["step"] = double(view->step);
+    out["state_hash"] = QString("%1").arg(view->state_hash, 16, 16, QChar('0'));
+    // Where the others' pointers are in the viewport's picture, for a check of what it shows.
+    QJsonArray pointers;
+    const qreal dpr = viewport_->devicePixelRatio();
+    for (const PeerRow& p : view->peers) {
+      if (p.self || !p.present || !p.has_presence || p.presence.pointer == Vec3::Zero()) continue;
+      const QPointF at = viewport_->project(p.presence.pointer) * dpr;
+      pointers.append(QJsonObject{{"name", QString::fromStdString(p.name)},
+                                  {"colour", QColor::fromRgbF(float(p.colour.x()), float(p.colour.y()), float(p.colour.z())).name()},
+                                  {"x", at.x()},
+                                  {"y", at.y()}});
+    }
+    out["pointers"] = pointers;
+  }
+  QFile file(path);
+  if (!file.open(QIODevice::WriteOnly) || file.write(QJsonDocument(out).toJson()) < 0) {
+    on_message("The peers were not written to " + path + ": check the folder exists", true);
+    return false;
+  }
+  return true;
 }
 
 }  // namespace kiji::studio

@@ -1,5 +1,5 @@
 // Kiji Studio's window: the viewport in the middle, the tools and their parameters on the left, the
-// Python console below, the menus (File, Edit, View, Simulation, Device, Help) and a status bar
+// Python console below, the peers of a shared session on the right, the menus (File, Edit, View, Simulation, Device, Help) and a status bar
 // with the simulation's steps a second, the frames a second, the haptic loop's rate, the vertices
 // and the active tool.
 #pragma once
@@ -16,6 +16,7 @@ class QLabel;
 
 namespace kiji::studio {
 
+class PeersPanel;
 class PythonConsole;
 class ToolPanel;
 
@@ -28,6 +29,10 @@ class MainWindow : public QMainWindow {
   Viewport& viewport() { return *viewport_; }
   ToolPanel& tool_panel() { return *tools_; }
   PythonConsole& console() { return *console_; }
+  PeersPanel& peers_panel() { return *peers_; }
+  // A shared session as the window shows it, as JSON: the Peers list's rows, the state hash, and
+  // where each other peer's pointer is seen in the viewport (pixels of save_picture's image).
+  bool save_peers(const QString& path);
   // The messages shown so far, errors among them (for tests and for the scripted runs' exit code).
   const QStringList& errors() const { return errors_; }
   QString status_text() const;
@@ -47,12 +52,16 @@ class MainWindow : public QMainWindow {
   void open_body_dialog();
   void new_garment_dialog();
   void phantom_settings_dialog();
+  void share_dialog(bool host);
   void sync_device_menu();
 
   Studio& studio_;
   Viewport* viewport_;
   ToolPanel* tools_;
   PythonConsole* console_;
+  PeersPanel* peers_;
+  QDockWidget* peers_dock_;
+  QAction* leave_action_;
   QDockWidget* tools_dock_;
   QDockWidget* console_dock_;
   QLabel* status_sim_;
@@ -60,6 +69,7 @@ class MainWindow : public QMainWindow {
   QLabel* status_haptic_;
   QLabel* status_vertices_;
   QLabel* status_tool_;
+  QLabel* status_shared_;
   QAction* run_action_;
   QAction* undo_action_;
   QAction* redo_action_;

@@ -57,8 +57,9 @@ void main() {
 
 const char* kFlatFragment = R"(#version 330 core
 uniform vec3 color;
+uniform float alpha;
 out vec4 out_color;
-void main() { out_color = vec4(color, 1.0); }
+void main() { out_color = vec4(color, alpha); }
 )";
 
 void uniform(QOpenGLExtraFunctions* gl, QOpenGLShaderProgram& p, const char* name, const Eigen::Matrix4f& m) {
@@ -111,7 +112,7 @@ Eigen::Matrix4f placed(const Vec3& at, double scale) {
 }  // namespace
 
 void SceneRenderer::GarmentGpu::destroy() {
-  for (QOpenGLBuffer* b : {&positions, &normals, &uvs, &triangles, &edges, &points, &local_edges, &local_points})
+  for (QOpenGLBuffer* b : {&positions, &normals, &uvs, &triangles, &edges, &points, &local_edges, &local_points, &leased})
     b->destroy();
   if (vao) vao->destroy();
   gl_texture.reset();
@@ -272,6 +273,7 @@ void SceneRenderer::draw_lines(const std::vector<float>& xyz, const Vec3& color,
   flat_.bind();
   uniform(gl_, flat_, "view_projection", vp);
   uniform(flat_, "color", color);
+  flat_.setUniformValue("alpha", 1.0f);
   flat_.setUniformValue("point_size", point_size);
   lines_vao_->bind();
   lines_.bind();
@@ -316,6 +318,7 @@ void SceneRenderer::draw_topology(GarmentGpu& gpu, const GarmentFrame& g, const 
   if (edge_count > 0 || point_count > 0) {
   flat_.bind();
   uniform(gl_, flat_, "view_projection", vp);
+  flat_.setUniformValue("alpha", 1.0f);
   uniform(flat_, "color", Vec3(0.12, 0.12, 0.16));
   flat_.setUniformValue("point_size", 1.0f);
   edges->bind();
@@ -331,8 +334,75 @@ void SceneRenderer::draw_topology(GarmentGpu& gpu, const GarmentFrame& g, const 
   gpu.vao->release();
 }
 
+void SceneRenderer::draw_leases(GarmentGpu& gpu, const GarmentFrame& g, std::size_t index, const PeerView& peers,
+                                const Eigen::Matrix4f& vp) {
+  const GarmentTopology& t = *g.topology;
+  bool any = false;
+  for (const LeaseInfo& lease : peers.leases) {
+    if (lease.garment != index || lease.vertices.empty()) continue;
+    // A mesh vertex index may be past the drawn ones (the lease is a few steps older than the frame).
+    std::uint32_t top = 0;
+    for (std::uint32_t m : t.mesh_vertex) top = std::max(top, m);
+    scratch_held_.assign(std::size_t(top) + 1, 0);
+    for (std::uint32_t v : lease.vertices)
+      if (v <= top) scratch_held_[v] = 1;
+    scratch_leased_.clear();
+    for (std::size_t i = 0; i + 2 < t.triangles.size(); i += 3) {
+      const std::uint32_t a = t.triangles[i], b = t.triangles[i + 1], c = t.triangles[i + 2];
+      if (scratch_held_[t.mesh_vertex[a]] && scratch_held_[t.mesh_vertex[b]] && scratch_held_[t.mesh_vertex[c]])
+        scratch_leased_.insert(scratch_leased_.end(), {a, b, c});
+    }
+    if (scratch_leased_.empty()) continue;
+    if (!any) {
+      any = true;
+      gpu.vao->bind();
+      flat_.bind();
+      uniform(gl_, flat_, "view_projection", vp);
+      flat_.setUniformValue("point_size", 1.0f);
+      gl_->glEnable(GL_BLEND);
+      gl_->glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+    }
+    uniform(flat_, "color", peers.colour_of(lease.holder));
+    flat_.setUniformValue("alpha", 0.55f);
+    fill(gpu.leased, scratch_leased_);
+    gl_->glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(scratch_leased_.size()), GL_UNSIGNED_INT, nullptr);
+  }
+  if (!any) return;
+  gl_->glDisable(GL_BLEND);
+  gpu.triangles.bind();  // the VAO's own index buffer back
+  gpu.vao->release();
+}
+
+void SceneRenderer::draw_peers(const PeerView& peers, const OrbitCamera& camera, const Eigen::Matrix4f& vp,
+                               const Eigen::Matrix4f& view) {
+  // Over everything: another user's pen behind the body is still where they point.
+  gl_->glDisable(GL_DEPTH_TEST);
+  const double size = std::max(0.006, 0.012 * camera.distance / 3.0);
+  for (const PeerRow& p : peers.peers) {
+    if (p.self || !p.present || !p.has_presence) continue;
+    const PeerPresence& at = p.presence;
+    if (at.eye != at.target) {
+      // The viewpoint: a small camera at the eye, and its line of sight to what it looks at.
+      draw_solid(sphere_, placed(at.eye, 0.8 * size), p.colour, vp, view);
+      draw_lines({float(at.eye.x()), float(at.eye.y()), float(at.eye.z()), float(at.target.x()), float(at.target.y()),
+                  float(at.target.z())},
+                 p.colour, vp, GL_LINES);
+      draw_lines({float(at.target.x()), float(at.target.y()), float(at.target.z())}, p.colour, vp, GL_POINTS, 7);
+    }
+    if (at.pointer != Vec3::Zero()) {
+      draw_solid(sphere_, placed(at.pointer, size), p.colour, vp, view);
+      const Vec3 axis = at.orientation * Vec3::UnitZ();
+      const Vec3 end = at.pointer + 8 * size * axis;
+      draw_lines({float(at.pointer.x()), float(at.pointer.y()), float(at.pointer.z()), float(end.x()), float(end.y()),
+                  float(end.z())},
+                 p.colour, vp, GL_LINES);
+    }
+  }
+  gl_->glEnable(GL_DEPTH_TEST);
+}
+
 void SceneRenderer::draw(const SceneFrame& frame, const OrbitCamera& camera, const DrawOptions& options, int width,
-                         int height) {
+                         int height, const PeerView* peers) {
   if (!ready_ || width <= 0 || height <= 0) return;
   edges_drawn_ = 0;
   const double aspect = double(width) / double(height);
@@ -403,6 +473,10 @@ void SceneRenderer::draw(const SceneFrame& frame, const OrbitCamera& camera, con
     if (textured) gpu.gl_texture->release(0);
   }
   gl_->glDisable(GL_POLYGON_OFFSET_FILL);
+  if (peers)
+    for (std::size_t i = 0; i < frame.garments.size(); ++i)
+      if (frame.garments[i].topology && !frame.garments[i].topology->triangles.empty())
+        draw_leases(*garments_[i], frame.garments[i], i, *peers, vp);
   for (std::size_t i = 0; i < frame.garments.size(); ++i)
     if (frame.garments[i].topology && !frame.garments[i].topology->triangles.empty())
       draw_topology(*garments_[i], frame.garments[i], options, centre, vp);
@@ -431,6 +505,7 @@ void SceneRenderer::draw(const SceneFrame& frame, const OrbitCamera& camera, con
                  Vec3(0.85, 0.1, 0.1), vp, GL_LINES);
     }
   }
+  if (peers) draw_peers(*peers, camera, vp, view);
 }
 
 }  // namespace kiji::studio

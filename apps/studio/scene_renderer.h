@@ -1,11 +1,13 @@
 // Draws a SceneFrame with OpenGL 3.3 core (what Mesa's llvmpipe gives on a machine without a GPU):
 // the body and the garments lit and shaded (with their painted texture), their edges and vertices
 // everywhere, around the pointer or not at all, the pointer as a 3D pen with the cloth point it
-// would act on, and the force the hand feels. GPU buffers are kept between frames and refilled
-// only with what changed.
+// would act on, and the force the hand feels; in a shared session, the other peers' pointers and
+// viewpoints and the cloth each has leased, in each peer's colour. GPU buffers are kept between
+// frames and refilled only with what changed.
 #pragma once
 
 #include "orbit_camera.h"
+#include "peer_link.h"
 
 #include "kiji/scene_frame.h"
 
@@ -41,7 +43,9 @@ class SceneRenderer {
   bool initialize(QOpenGLExtraFunctions* gl, QString* error);
   // Frees the GPU resources (the context must be current).
   void release();
-  void draw(const SceneFrame& frame, const OrbitCamera& camera, const DrawOptions& options, int width, int height);
+  // `peers`: a shared session's other users, drawn over the scene (null: none).
+  void draw(const SceneFrame& frame, const OrbitCamera& camera, const DrawOptions& options, int width, int height,
+            const PeerView* peers = nullptr);
   // Edges and vertices drawn in the last frame, for the benchmark.
   std::size_t edges_drawn() const { return edges_drawn_; }
 
@@ -55,7 +59,7 @@ class SceneRenderer {
         uvs{QOpenGLBuffer::VertexBuffer};
     QOpenGLBuffer triangles{QOpenGLBuffer::IndexBuffer}, edges{QOpenGLBuffer::IndexBuffer},
         points{QOpenGLBuffer::IndexBuffer}, local_edges{QOpenGLBuffer::IndexBuffer},
-        local_points{QOpenGLBuffer::IndexBuffer};
+        local_points{QOpenGLBuffer::IndexBuffer}, leased{QOpenGLBuffer::IndexBuffer};
     std::unique_ptr<QOpenGLTexture> gl_texture;
     void destroy();
   };
@@ -77,6 +81,10 @@ class SceneRenderer {
                   float point_size = 1);
   void draw_topology(GarmentGpu& gpu, const GarmentFrame& g, const DrawOptions& options, const Vec3* centre,
                      const Eigen::Matrix4f& vp);
+  // The faces of garment `index` whose three vertices a peer leases, tinted in its colour.
+  void draw_leases(GarmentGpu& gpu, const GarmentFrame& g, std::size_t index, const PeerView& peers,
+                   const Eigen::Matrix4f& vp);
+  void draw_peers(const PeerView& peers, const OrbitCamera& camera, const Eigen::Matrix4f& vp, const Eigen::Matrix4f& view);
 
   QOpenGLExtraFunctions* gl_ = nullptr;
   QOpenGLShaderProgram shaded_, flat_;
@@ -85,7 +93,8 @@ class SceneRenderer {
   Solid body_, sphere_;
   std::unique_ptr<QOpenGLVertexArrayObject> lines_vao_;
   QOpenGLBuffer lines_{QOpenGLBuffer::VertexBuffer};
-  std::vector<std::uint32_t> scratch_edges_, scratch_points_;
+  std::vector<std::uint32_t> scratch_edges_, scratch_points_, scratch_leased_;
+  std::vector<char> scratch_held_;
   std::size_t edges_drawn_ = 0;
   bool ready_ = false;
 };

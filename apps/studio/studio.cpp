@@ -5,7 +5,9 @@
 #include "kiji/session.h"
 #include "kiji/session_file.h"
 
+#include <QDir>
 #include <QFileInfo>
+#include <QStandardPaths>
 
 namespace kiji::studio {
 
@@ -23,10 +25,13 @@ Studio::Studio(std::shared_ptr<ToolRegistry> tools, QObject* parent) : QObject(p
   start_loop();
   connect(&poll_timer_, &QTimer::timeout, this, &Studio::poll);
   poll_timer_.start(100);
+  connect(&peer_timer_, &QTimer::timeout, this, &Studio::poll_peers);
 }
 
 Studio::~Studio() {
   poll_timer_.stop();
+  peer_timer_.stop();
+  peer_.reset();
   cancel_drape_ = true;
   loop_->attach(nullptr);
   stop_device();
@@ -48,6 +53,10 @@ void Studio::start_loop() {
 }
 
 void Studio::replace_session(std::shared_ptr<Session> session) {
+  if (peer_) {
+    leave_session();
+    emit message("Left the shared session: the new scene is yours alone (host or join again to share it)", false);
+  }
   cancel_drape_ = true;
   loop_->attach(nullptr);  // the haptic loop lets go of the old session's tools
   loop_->stop();
@@ -186,6 +195,10 @@ bool Studio::simulating() const {
 }
 
 void Studio::drape(double seconds) {
+  if (peer_) {
+    emit message("Draping is not shared with the peers: leave the session to drape, or let the shared clock run", true);
+    return;
+  }
   if (draping_.exchange(true)) return;
   cancel_drape_ = false;
   SimulationLoop* loop = loop_.get();
@@ -354,6 +367,77 @@ void Studio::poll() {
       emit message("The Phantom's servo loop stopped (" + why + "); the mouse is used instead", true);
     }
   }
+}
+
+}  // namespace kiji::studio
+
+namespace kiji::studio {
+
+bool Studio::share_session(const PeerSettings& settings) {
+  if (peer_) leave_session();
+  PeerSettings s = settings;
+  if (s.host && s.key_file.empty())
+    s.default_key_dir = QDir(QStandardPaths::writableLocation(QStandardPaths::AppDataLocation)).filePath("keys").toStdString();
+  if (draping_.load()) {
+    emit message("The session was not shared: a drape is running (stop it first)", true);
+    return false;
+  }
+  try {
+    peer_ = std::make_unique<PeerLink>(*session_, s);
+  } catch (const std::exception& e) {
+    return fail(QString("The session was not %1 (it goes on unshared)").arg(s.host ? "hosted" : "joined"), e);
+  }
+  const PeerSettings& used = peer_->settings();
+  QString text = QString("%1 the session on %2, channel %3")
+                     .arg(used.host ? "Hosting" : "Joining", QString::fromStdString(used.url),
+                          QString::fromStdString(used.channel));
+  if (peer_->made_key())
+    text += QString("; new key file %1: give it to those who join").arg(QString::fromStdString(used.key_file));
+  emit message(text, false);
+  peer_ticks_ = 0;
+  peer_timer_.start(50);  // presence at 20 Hz, the peers' list at 10 Hz
+  poll_peers();
+  emit sharing_changed();
+  return true;
+}
+
+void Studio::leave_session() {
+  if (!peer_) return;
+  peer_timer_.stop();
+  peer_.reset();  // says goodbye, and the session is this app's own again
+  emit sharing_changed();
+  emit peers_changed();
+}
+
+void Studio::set_viewpoint(const Vec3& eye, const Vec3& target) {
+  eye_ = eye;
+  target_ = target;
+}
+
+void Studio::poll_peers() {
+  if (!peer_) return;
+  const std::string failure = peer_->error();
+  if (!failure.empty()) {
+    leave_session();
+    emit message("The shared session stopped (the session goes on unshared): " + QString::fromStdString(failure), true);
+    return;
+  }
+  PeerPresence presence;
+  presence.eye = eye_;
+  presence.target = target_;
+  if (const auto f = loop_->frame(); f && f->has_pointer) {
+    presence.pointer = f->pointer.position;
+    presence.orientation = f->pointer.orientation;
+    presence.buttons = f->pointer.buttons;
+    presence.tool = f->stroke_tool;
+  }
+  const bool sample = ++peer_ticks_ >= 2;
+  // A busy session (a step, a stroke) is tried again at the next tick: the UI never waits for it.
+  if (!peer_->update(&presence, sample)) return;
+  if (sample) peer_ticks_ = 0;
+  for (const std::string& why : peer_->take_refusals())
+    emit message("Refused: " + QString::fromStdString(why) + " (the cloth is as it was)", false);
+  if (sample) emit peers_changed();
 }
 
 }  // namespace kiji::studio

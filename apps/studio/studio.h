@@ -5,6 +5,7 @@
 #pragma once
 
 #include "mouse_device.h"
+#include "peer_link.h"
 #include "scene_setup.h"
 
 #include "kiji/phantom.h"
@@ -87,6 +88,19 @@ class Studio : public QObject {
   bool fit_workspace(bool to_body, const Eigen::Quaterniond& camera);
   QString device_description() const;
 
+  // --- Sharing (File > Host session, Join session, Leave session) ---
+  // Shares the session with peers over LCM: hosting makes this session the shared one; joining
+  // replaces it by the host's when its snapshot arrives. A bad key file or a network that cannot
+  // be opened is a message, and the session goes on unshared: returns false then. Sharing again
+  // leaves the last shared session first.
+  bool share_session(const PeerSettings& settings);
+  void leave_session();
+  bool shared() const { return static_cast<bool>(peer_); }
+  // What the Peers list and the viewport show, as last copied (null when not shared).
+  std::shared_ptr<const PeerView> peer_view() const { return peer_ ? peer_->view() : nullptr; }
+  // Where this user looks from, sent to the peers with the pointer (the viewport says, as it draws).
+  void set_viewpoint(const Vec3& eye, const Vec3& target);
+
  signals:
   // For the status bar (information) or a message box (errors).
   void message(const QString& text, bool error);
@@ -95,6 +109,9 @@ class Studio : public QObject {
   void device_changed();
   // The scene changed size (a body or garment came or went): a viewport may frame it.
   void scene_changed();
+  // Sharing started or ended, or the peers' view was copied afresh.
+  void sharing_changed();
+  void peers_changed();
 
  private:
   struct ToolChoice {
@@ -105,6 +122,7 @@ class Studio : public QObject {
   void start_loop();
   void stop_device();
   void poll();
+  void poll_peers();
   bool fail(const QString& what, const std::exception& e);
 
   std::shared_ptr<ToolRegistry> tools_;
@@ -123,6 +141,11 @@ class Studio : public QObject {
   bool clock_running_ = true;
   std::atomic<bool> draping_{false}, cancel_drape_{false};
   QTimer poll_timer_;
+
+  std::unique_ptr<PeerLink> peer_;
+  QTimer peer_timer_;
+  int peer_ticks_ = 0;
+  Vec3 eye_{0, 0, 0}, target_{0, 0, 0};
 };
 
 }  // namespace kiji::studio

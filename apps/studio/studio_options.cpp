@@ -50,6 +50,16 @@ std::string StudioOptions::usage() {
          "  --drape SECONDS         let the garments fall and settle on the body first\n"
          "  --open SESSION          open a saved session (.kiji) instead\n"
          "  --replay JOURNAL        run the strokes of a journal on the scene\n"
+         "Designing together (docs/peers.md):\n"
+         "  --host                  host a shared session of this scene\n"
+         "  --join                  join a shared session (the host's scene replaces this one)\n"
+         "  --key-file FILE         the session's key; a host makes a missing file (readable by its owner only),\n"
+         "                          and without this option a new one, named in the status bar\n"
+         "  --url URL               the LCM network [udpm://239.255.76.67:7667?ttl=0: this computer; ttl=1: the LAN]\n"
+         "  --channel NAME          the LCM channel [KIJI_PEER]\n"
+         "  --name NAME             your name as the others see it\n"
+         "  --seconds S             (host) the shared clock stops at S simulated seconds; a scripted run then\n"
+         "                          ends once every peer agrees there (or at --quit-after)\n"
          "The device and the view:\n"
          "  --device mouse|phantom|none   the pointing device (default mouse; a Phantom that fails falls back to\n"
          "                          the mouse, with a message)\n"
@@ -67,6 +77,7 @@ std::string StudioOptions::usage() {
          "  --save-journal FILE     the session's strokes\n"
          "  --save-session FILE     the session (.kiji, with its journal and garments)\n"
          "  --export FILE           the first garment as .glb or .obj\n"
+         "  --save-peers FILE       a shared session's peers as the Peers list shows them, as JSON\n"
          "  --benchmark             measure frames a second while each tool is used, at each size and edge display\n"
          "  --bench-sizes V,...     vertex counts for --benchmark (default 529,5041,19881)\n"
          "  --bench-tools ID,...    tools for --benchmark (default every tool)\n"
@@ -148,6 +159,17 @@ StudioOptions StudioOptions::parse(const std::vector<std::string>& args) {
       else if (name == "--save-journal") o.save_journal = take();
       else if (name == "--save-session") o.save_session = take();
       else if (name == "--export") o.export_garment = take();
+      else if (name == "--host") flag(), o.host = true;
+      else if (name == "--join") flag(), o.join = true;
+      else if (name == "--url") o.url = take();
+      else if (name == "--channel") o.channel = take();
+      else if (name == "--name") o.name = take();
+      else if (name == "--key-file") o.key_file = take();
+      else if (name == "--save-peers") o.save_peers = take();
+      else if (name == "--seconds") {
+        o.seconds = number(name, take());
+        if (o.seconds <= 0 || o.seconds > 1e6) throw UsageError("option --seconds must be more than 0 and at most 1e6");
+      }
       else if (name == "--benchmark") flag(), o.benchmark = true;
       else if (name == "--bench-sizes") {
         o.bench_sizes.clear();
@@ -172,6 +194,13 @@ StudioOptions StudioOptions::parse(const std::vector<std::string>& args) {
     for (GarmentSpec& g : o.garments) g.material = *material;
   if ((o.body_options.up || o.body_options.scale || o.body_options.height) && !o.body)
     throw UsageError("options --up, --scale and --height describe a body: give it with --body FILE");
+  if (o.host && o.join) throw UsageError("options --host and --join exclude each other: host a session or join one");
+  if (o.join && !o.key_file) throw UsageError("option --join needs the session's key: --key-file FILE (the host has it)");
+  if (!o.host && !o.join && (o.url || o.channel || o.name || o.key_file || o.seconds > 0 || o.save_peers))
+    throw UsageError("options --url, --channel, --name, --key-file, --seconds and --save-peers are for a shared "
+                     "session: add --host or --join");
+  if (o.join && o.seconds > 0) throw UsageError("option --seconds is the host's: a joiner's clock is the host's");
+  if (o.channel && o.channel->empty()) throw UsageError("option --channel needs a name");
   if (o.open_session && (o.body || !o.garments.empty()))
     throw UsageError("option --open opens a whole session: leave out --body and --garment");
   return o;

@@ -31,6 +31,10 @@ struct StudioOptions {
   std::vector<std::string> python;  // lines for the console, run in order once the window is up
   std::optional<double> quit_after;
   std::optional<std::string> screenshot, window_screenshot, save_journal, save_session, export_garment;
+  // A shared session (as kiji peer's options): host it, or join one.
+  bool host = false, join = false;
+  std::optional<std::string> url, channel, name, key_file, save_peers;
+  double seconds = 0;  // (host) the shared clock stops here; a scripted run ends once all agree there
   int width = 1280, height = 800;
   bool benchmark = false;
   std::vector<int> bench_sizes{529, 5041, 19881};

@@ -5,6 +5,7 @@
 #include <QKeyEvent>
 #include <QMouseEvent>
 #include <QOpenGLContext>
+#include <QPainter>
 #include <QWheelEvent>
 #include <QWidget>
 
@@ -98,7 +99,11 @@ void Viewport::paintGL() {
   }
   options_.show_pointer = studio_.device_kind() == DeviceKind::Phantom || cursor_inside_ || drag_ == Drag::Stroke;
   const qreal dpr = devicePixelRatio();
-  renderer_.draw(*frame, camera_, options_, int(width() * dpr), int(height() * dpr));
+  const auto peers = studio_.peer_view();
+  renderer_.draw(*frame, camera_, options_, int(width() * dpr), int(height() * dpr), peers.get());
+  if (peers) draw_peer_names(*peers);
+  drawn_peers_ = peers;
+  studio_.set_viewpoint(camera_.eye(), camera_.target);
   drawn_frame_ = frame->number;
   dirty_ = false;
   ++frames_drawn_;
@@ -111,7 +116,7 @@ void Viewport::paintGL() {
 void Viewport::tick() {
   const auto frame = studio_.frame();
   if (continuous_) return;
-  if (dirty_ || (frame && frame->number != drawn_frame_)) update();
+  if (dirty_ || (frame && frame->number != drawn_frame_) || studio_.peer_view() != drawn_peers_) update();
   // With nothing drawn for a second, the rate shown is zero, not the last one measured.
   if (!frame_times_.empty() && fps_clock_.elapsed() - frame_times_.back() > 1000) {
     frame_times_.clear();
@@ -131,6 +136,28 @@ void Viewport::frame_all() {
   }
   pending_frame_.reset();
   camera_.frame(frame->bounds(), double(width()) / height());
+}
+
+void Viewport::draw_peer_names(const PeerView& peers) {
+  QPainter painter(this);
+  painter.setRenderHint(QPainter::Antialiasing);
+  QFont font = painter.font();
+  font.setBold(true);
+  painter.setFont(font);
+  const QFontMetrics metrics(font);
+  for (const PeerRow& p : peers.peers) {
+    if (p.self || !p.present || !p.has_presence || p.presence.pointer == Vec3::Zero()) continue;
+    // A label beside the pen's tip, in the peer's colour: who is pointing there.
+    const QPointF at = project(p.presence.pointer);
+    const QString name = QString::fromStdString(p.name);
+    const QRectF box(at + QPointF(10, -metrics.height() - 6), QSizeF(metrics.horizontalAdvance(name) + 10, metrics.height() + 4));
+    const QColor colour = QColor::fromRgbF(float(p.colour.x()), float(p.colour.y()), float(p.colour.z()));
+    painter.setPen(Qt::NoPen);
+    painter.setBrush(colour);
+    painter.drawRoundedRect(box, 3, 3);
+    painter.setPen(colour.lightnessF() > 0.55 ? Qt::black : Qt::white);
+    painter.drawText(box, Qt::AlignCenter, name);
+  }
 }
 
 QPointF Viewport::project(const Vec3& p) const {

@@ -7,6 +7,9 @@
 //    grabbed point facing the camera, and the wheel moves that plane nearer or farther.
 // Left button: the primary tool; right button: the secondary one.
 //
+// In a shared session it also draws the other peers: their pens with their names, their viewpoints,
+// and the cloth each holds.
+//
 // It is a QOpenGLWindow in a window container, not a QOpenGLWidget: for a QOpenGLWidget Qt composes
 // the whole top-level window through OpenGL on every frame, which under Mesa's llvmpipe costs
 // several times what the scene does (docs/benchmarks.md, "Kiji Studio").
@@ -69,6 +72,8 @@ class Viewport : public QOpenGLWindow {
   enum class Drag { None, Orbit, Pan, Stroke };
   void tick();
   void release_gl();
+  // Each other peer's name beside its pointer (over the GL picture).
+  void draw_peer_names(const PeerView& peers);
   // The cursor as a 3D pointer for the mouse device.
   void push_pointer(const QPointF& at, std::uint32_t buttons);
   Vec3 cursor_ray(const QPointF& at) const;
@@ -84,6 +89,7 @@ class Viewport : public QOpenGLWindow {
   QTimer timer_;
   bool continuous_ = false;
   std::uint64_t drawn_frame_ = 0;
+  std::shared_ptr<const PeerView> drawn_peers_;  // a new copy of the peers is a new pointer: draw again
   bool dirty_ = true;
   bool framed_once_ = false;
   // A box to frame once the view has its size (framing needs the view's aspect).

@@ -1108,6 +1108,12 @@ std::vector<PeerInfo> Peer::peers() const {
     p.step = k.step;
     p.last_heard = k.heard;
     p.presence = k.presence;
+    for (auto own = m.own_hashes.rbegin(); own != m.own_hashes.rend(); ++own) {
+      auto h = k.hashes.find(own->first);
+      if (h == k.hashes.end()) continue;
+      p.hash_agrees = h->second == own->second;
+      break;
+    }
     out.push_back(p);
   }
   return out;

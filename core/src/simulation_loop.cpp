@@ -34,9 +34,17 @@ SimulationLoop::SimulationLoop(std::shared_ptr<Session> session, double rate_hz)
   std::lock_guard<std::recursive_mutex> lock(session_->mutex());
   // A change of rate is an operation of the session: made only when there is one.
   if (session_->frame_rate() != rate_hz) session_->set_frame_rate(rate_hz);  // validates the rate
+  // Operations applied by another thread (a peer's, a console's) change what the UI must draw.
+  listener_ = session_->add_listener([this](const Operation&) {
+    if (std::this_thread::get_id() != loop_thread_.load()) changed_elsewhere_.store(true);
+  });
 }
 
-SimulationLoop::~SimulationLoop() { stop(); }
+SimulationLoop::~SimulationLoop() {
+  stop();
+  std::lock_guard<std::recursive_mutex> lock(session_->mutex());
+  session_->remove_listener(listener_);
+}
 
 std::unique_lock<std::recursive_mutex> SimulationLoop::hold() {
   ++holders_waiting_;
@@ -67,7 +75,7 @@ void SimulationLoop::stop() {
   if (thread_.joinable()) thread_.join();
   auto lock = lock_session();
   Session& s = *session_;
-  if (stroke_button_ && s.stroke_active()) end_stroke(s, last_move_, Phase::Cancel);
+  if (stroke_button_ && stroke_open(s)) end_stroke(s, last_move_, Phase::Cancel);
   if (fed_) {
     fed_->set_tool(nullptr);
     fed_->publish(nullptr);
@@ -166,6 +174,7 @@ void SimulationLoop::publish_now() {
 }
 
 void SimulationLoop::run() {
+  loop_thread_.store(std::this_thread::get_id());
   const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / rate_hz_));
   auto next = Clock::now() + period;
   while (running_.load()) {
@@ -209,14 +218,16 @@ void SimulationLoop::tick() {
       report((w.what.empty() ? "" : w.what + ": ") + error_text(std::current_exception()));
     }
   }
+  if (changed_elsewhere_.exchange(false)) edited_ = true;
   // Work may have ended the stroke (an undo cancels it).
-  if (stroke_button_ && !s.stroke_active()) {
+  if (stroke_button_ && !stroke_open(s)) {
     stroke_button_ = 0;
     stroke_tool_.clear();
   }
   handle_device(s);
-  // A paused session (Session::simulating()) still steps: its clock goes on, its cloth stands.
-  if (stepping_.load()) {
+  // A paused session (Session::simulating()) still steps: its clock goes on, its cloth stands. A
+  // shared one (gated) is stepped by its peer, on the clock the peers share.
+  if (stepping_.load() && !s.gated()) {
     try {
       s.step();
     } KIJI_RETHROW_FORCED_UNWIND catch (...) {
@@ -243,7 +254,7 @@ void SimulationLoop::apply_settings(Session& s) {
   settings_changed_ = false;
   HapticLoop* haptics = haptics_;
   if (fed_ && fed_ != haptics) {
-    if (stroke_button_ && s.stroke_active()) end_stroke(s, last_move_, Phase::Cancel);
+    if (stroke_button_ && stroke_open(s)) end_stroke(s, last_move_, Phase::Cancel);
     fed_->set_tool(nullptr);
     fed_->publish(nullptr);
     fed_->quiesce();
@@ -265,7 +276,7 @@ void SimulationLoop::handle_device(Session& s) {
   apply_settings(s);
   HapticLoop* haptics = fed_;
   if (!haptics) {
-    if (stroke_button_ && s.stroke_active()) end_stroke(s, last_move_, Phase::Cancel);
+    if (stroke_button_ && stroke_open(s)) end_stroke(s, last_move_, Phase::Cancel);
     buttons_ = 0;
     return;
   }
@@ -282,6 +293,12 @@ void SimulationLoop::handle_device(Session& s) {
     }
   }
   if (!stroke_button_) return;
+  // A shared session applies the stroke's begin when its turn comes: only then is it known
+  // whether it took hold of cloth.
+  if (holds_pending_ && s.stroke_active()) {
+    holds_pending_ = false;
+    stroke_holds_cloth_ = held_cloth(s) > held_before_;
+  }
   const ToolEvent sample = haptics->latest_sample();
   if (sample.position == last_move_.position && sample.ray == last_move_.ray &&
       sample.orientation.coeffs() == last_move_.orientation.coeffs())
@@ -318,17 +335,10 @@ void SimulationLoop::begin_stroke(Session& s, const ToolEvent& sample, std::uint
     Tool& tool = s.tool(choice.id);
     const SurfaceHit hit = s.pick(begin.position, begin.ray);
     stroke_garment_ = hit.hit ? hit.garment : 0;
-    // Whether the tool takes hold of the cloth: a new attachment or a newly pinned vertex.
-    auto held = [&] {
-      if (stroke_garment_ >= s.garment_count()) return std::size_t(0);
-      const Garment& g = s.garment(stroke_garment_);
-      std::size_t pinned = 0;
-      for (Vertex v : g.mesh().vertices()) pinned += g.pinned(v);
-      return pinned + s.solver(stroke_garment_).attachment_count();
-    };
-    const std::size_t held_before = held();
+    held_before_ = held_cloth(s);
     s.apply(tool, begin, &choice.params);
-    stroke_holds_cloth_ = held() > held_before;
+    holds_pending_ = !s.stroke_active();  // proposed to the peers, not applied yet
+    stroke_holds_cloth_ = !holds_pending_ && held_cloth(s) > held_before_;
     stroke_button_ = button;
     stroke_tool_ = choice.id;
     last_move_ = begin;
@@ -347,14 +357,26 @@ void SimulationLoop::end_stroke(Session& s, const ToolEvent& sample, Phase phase
   const std::string tool = stroke_tool_;
   stroke_button_ = 0;
   stroke_tool_.clear();
+  holds_pending_ = false;
   try {
-    if (s.stroke_active()) s.apply(tool, end);
+    if (stroke_open(s)) s.apply(tool, end);
   } KIJI_RETHROW_FORCED_UNWIND catch (...) {
     report("'" + tool + "' stroke: " + error_text(std::current_exception()) + " (the stroke was undone)");
   }
   // Back to feeling the primary tool (its stroke settings are over).
   back_to_primary_ = true;
   edited_ = true;
+}
+
+bool SimulationLoop::stroke_open(const Session& s) { return !s.stroke_tool().empty(); }
+
+std::size_t SimulationLoop::held_cloth(Session& s) const {
+  // Whether a tool takes hold of the cloth: a new attachment or a newly pinned vertex.
+  if (stroke_garment_ >= s.garment_count()) return 0;
+  const Garment& g = s.garment(stroke_garment_);
+  std::size_t pinned = 0;
+  for (Vertex v : g.mesh().vertices()) pinned += g.pinned(v);
+  return pinned + s.solver(stroke_garment_).attachment_count();
 }
 
 void SimulationLoop::publish(Session& s) {

@@ -28,6 +28,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <string_view>
@@ -78,6 +79,8 @@ struct PeerInfo {
   std::uint64_t step = 0;       // the peer's clock as last heard
   double last_heard = 0;        // seconds, on the caller's clock
   PeerPresence presence;
+  // Whether its state hash equals this peer's at the latest step both hashed (unset: none yet).
+  std::optional<bool> hash_agrees;
 };
 
 struct LeaseInfo {

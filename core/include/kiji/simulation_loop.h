@@ -75,6 +75,8 @@ class SimulationLoop {
   // Whether the loop steps the session at all (it still runs work and tools, and publishes). Off
   // while an app sets its scene up, so that the clock starts at zero when the user (or a replayed
   // journal) does. Pausing the cloth is the session's own setting (Session::set_simulating), not this.
+  // While the session is shared with peers (Session::gated) the loop never steps it, whatever this
+  // says: the peer steps the shared clock; the device's strokes go to the peer as proposals.
   void set_stepping(bool on) { stepping_.store(on); }
   bool stepping() const { return stepping_.load(); }
 
@@ -100,6 +102,10 @@ class SimulationLoop {
   void end_stroke(Session& s, const ToolEvent& sample, Phase phase);
   void publish(Session& s);
   void report(const std::string& message);
+  // A stroke of the device's user is in progress as the user sees it (a shared session's included,
+  // proposed but not yet applied).
+  static bool stroke_open(const Session& s);
+  std::size_t held_cloth(Session& s) const;  // pinned vertices and attachments of the stroke's garment
   std::unique_lock<std::recursive_mutex> lock_session();
 
   std::shared_ptr<Session> session_;
@@ -113,6 +119,9 @@ class SimulationLoop {
   std::deque<Work> queue_;
 
   std::atomic<int> holders_waiting_{0};
+  int listener_ = -1;
+  std::atomic<bool> changed_elsewhere_{false};  // an operation applied by another thread (a peer's)
+  std::atomic<std::thread::id> loop_thread_{};
 
   // The device and the strokes it makes (simulation thread only, but for the settings).
   std::mutex settings_mutex_;
@@ -131,6 +140,8 @@ class SimulationLoop {
   ToolEvent last_move_;
   std::size_t stroke_garment_ = 0;
   bool stroke_holds_cloth_ = false;
+  bool holds_pending_ = false;     // the stroke's begin waits for its turn in the peers' order
+  std::size_t held_before_ = 0;
   HapticLoop* fed_ = nullptr;      // the haptic loop last given a tool
   bool edited_ = true;             // a tool or work ran since the last frame
   bool back_to_primary_ = false;   // a stroke ended: the haptic loop feels the primary tool again

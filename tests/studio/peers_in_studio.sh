@@ -1,0 +1,144 @@
+#!/usr/bin/env bash
+# Kiji Studio in a shared session, over LCM multicast on real sockets in a private network namespace
+# (no root needed; nothing leaves the machine): the app hosts the session (on a virtual X server), a
+# `kiji peer` joins and pulls a corner of the cloth off the head (a journal's stroke, replayed in real
+# time). Passes when the app lists the peer, its exported garment has the corner moved and equals
+# the peer's, their state hashes are equal, and its picture shows the peer's pointer in its colour.
+# Then bad input: a key file that does not exist, a network LCM cannot open.
+#   usage: peers_in_studio.sh STUDIO KIJI WORK_DIR XVFB_RUN
+set -uo pipefail
+studio=$1 kiji=$2 work=$3 xvfb_run=$4
+here=$(cd "$(dirname "$0")" && pwd)
+rm -rf "$work" && mkdir -p "$work"
+failures=0
+fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+
+echo "1. joining with a key file that does not exist: a message, the session goes on unshared, exit 1"
+"$xvfb_run" -a -s "-screen 0 1600x1200x24" "$studio" --garment rect:0.5,0.5,0.05 --join --key-file "$work/no-such.key" \
+  --quit-after 0.5 >"$work/nokey.txt" 2>&1
+rc=$?
+[ $rc -eq 1 ] || fail "exit $rc, not 1"
+grep -q "The session was not joined (it goes on unshared): the key file '$work/no-such.key' does not exist" "$work/nokey.txt" ||
+  { fail "no message about the key file:"; cat "$work/nokey.txt"; }
+
+echo "2. hosting on a network LCM cannot open: a message naming it, exit 1"
+"$xvfb_run" -a -s "-screen 0 1600x1200x24" "$studio" --garment rect:0.5,0.5,0.05 --host --key-file "$work/made.key" \
+  --url "udpm://999.0.0.1:7667" --quit-after 0.5 >"$work/badurl.txt" 2>&1
+rc=$?
+[ $rc -eq 1 ] || fail "exit $rc, not 1"
+grep -q "The session was not hosted (it goes on unshared):.*999.0.0.1" "$work/badurl.txt" ||
+  { fail "no message about the network:"; cat "$work/badurl.txt"; }
+
+echo "3. the app hosts, a kiji peer joins and pulls a corner"
+if ! unshare -rn true 2>/dev/null; then
+  echo "peers_in_studio: SKIPPED the shared session: cannot make a private network namespace (unshare -rn); it" \
+       "needs unprivileged user namespaces (sysctl kernel.unprivileged_userns_clone=1)"
+  [ $failures -eq 0 ] && exit 77 || exit 1
+fi
+export KIJI_WORK=$work KIJI_STUDIO=$studio KIJI_BIN=$kiji KIJI_XVFB_RUN=$xvfb_run KIJI_REPLAY=$here/../peers/pull_corner.json
+unshare -rn bash -uo pipefail -c '
+  ip link set lo up
+  ip link set lo multicast on
+  ip route add 224.0.0.0/4 dev lo
+  # The app makes the key (it hosts with a key file that does not exist yet); the peer waits for it.
+  "$KIJI_XVFB_RUN" -a -s "-screen 0 1600x1200x24" "$KIJI_STUDIO" --window 1000x700 \
+    --body /usr/share/assimp/models/Collada/human.zae --garment rect:0.6,0.6,0.02 --device none \
+    --host --name studio --key-file "$KIJI_WORK/session.key" --seconds 6 --quit-after 60 \
+    --export "$KIJI_WORK/studio.glb" --screenshot "$KIJI_WORK/studio.png" --save-peers "$KIJI_WORK/peers.json" \
+    > "$KIJI_WORK/studio.txt" 2>&1 &
+  app=$!
+  for i in $(seq 300); do [ -s "$KIJI_WORK/session.key" ] && break; sleep 0.1; done
+  stat -c %a "$KIJI_WORK/session.key" > "$KIJI_WORK/key_mode.txt" 2>/dev/null
+  # The peer stays until told to leave, so that the app sees its pointer to the end.
+  "$KIJI_BIN" peer --name puller --key-file "$KIJI_WORK/session.key" --replay "$KIJI_REPLAY" --json --timeout 90 \
+    --out "$KIJI_WORK/puller.glb" > "$KIJI_WORK/puller.json" 2> "$KIJI_WORK/puller.err" &
+  peer=$!
+  wait $app
+  echo $? > "$KIJI_WORK/studio.rc"
+  kill -TERM $peer 2>/dev/null
+  wait $peer
+  echo $? > "$KIJI_WORK/puller.rc"
+'
+[ "$(cat "$work/studio.rc" 2>/dev/null)" = 0 ] || { fail "the app exited $(cat "$work/studio.rc" 2>/dev/null)"; cat "$work/studio.txt"; }
+[ "$(cat "$work/puller.rc" 2>/dev/null)" = 0 ] || { fail "the peer exited $(cat "$work/puller.rc" 2>/dev/null)"; cat "$work/puller.err"; }
+[ "$(cat "$work/key_mode.txt" 2>/dev/null)" = 600 ] || fail "the key file the app made has mode $(cat "$work/key_mode.txt" 2>/dev/null), not 600"
+python3 - "$work" "$here/../peers/pull_corner.json" <<'PY' || failures=$((failures + 1))
+import json, struct, sys, zlib
+work = sys.argv[1]
+app = json.load(open(f"{work}/peers.json"))
+peer = json.loads(open(f"{work}/puller.json").read().strip())
+print("app:", {k: app.get(k) for k in ("joined", "converged", "step", "state_hash")})
+print("app's peers:", [(r["name"], r["role"], r["state"], r["colour"]) for r in app["peers"]])
+print("peer:", {k: peer[k] for k in ("steps", "state_hash", "applied", "replayed_events", "refusals", "error")})
+names = {r["name"]: r for r in app["peers"]}
+assert "studio (you)" in names and names["studio (you)"]["role"] == "sequencer", f"the app's own row: {names}"
+assert "puller" in names, f"the app does not list the peer that joined: {list(names)}"
+assert names["puller"]["present"] and names["puller"]["state"] == "agrees", names["puller"]
+events = len(json.load(open(sys.argv[2]))["strokes"][0]["events"])
+assert peer["replayed_events"] == events and not peer["refusals"], "the peer did not play its whole stroke"
+# The clock stops 6 s after the app began hosting (its scene's clock ran a little before).
+assert app["step"] == peer["steps"] >= 360, f"the shared clock stopped at {app['step']} / {peer['steps']}"
+assert int(app["state_hash"], 16) == peer["state_hash"], "the app and the peer ended with different states"
+
+def glb_positions(path):
+    data = open(path, "rb").read()
+    jlen = struct.unpack_from("<I", data, 12)[0]
+    doc = json.loads(data[20:20 + jlen])
+    binary = data[20 + jlen + 8:]
+    acc = doc["accessors"][doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"]]
+    view = doc["bufferViews"][acc["bufferView"]]
+    start = view.get("byteOffset", 0) + acc.get("byteOffset", 0)
+    return [struct.unpack_from("<3f", binary, start + 12 * i) for i in range(acc["count"])]
+
+mine, theirs = glb_positions(f"{work}/studio.glb"), glb_positions(f"{work}/puller.glb")
+assert mine == theirs, "the garment the app exported differs from the peer's"
+reach = max(p[0] for p in mine)
+assert reach > 0.45, f"the remote stroke did not move the app's cloth: the corner reaches x = {reach:.3f} m"
+
+def png_rgb(path):
+    # 8-bit RGB or RGBA, not interlaced: what Qt writes.
+    data = open(path, "rb").read()
+    pos, idat, w = 8, b"", 0
+    while pos < len(data):
+        n, kind = struct.unpack_from(">I4s", data, pos)
+        body = data[pos + 8:pos + 8 + n]
+        if kind == b"IHDR":
+            w, h, depth, ctype = struct.unpack_from(">IIBB", body)
+            assert depth == 8 and ctype in (2, 6), (depth, ctype)
+            bpp = 3 if ctype == 2 else 4
+        elif kind == b"IDAT":
+            idat += body
+        pos += 12 + n
+    raw, rows, prev, i = zlib.decompress(idat), [], bytearray(w * bpp), 0
+    for y in range(h):
+        f, line = raw[i], bytearray(raw[i + 1:i + 1 + w * bpp])
+        i += 1 + w * bpp
+        for x in range(len(line)):
+            a = line[x - bpp] if x >= bpp else 0
+            b, c = prev[x], prev[x - bpp] if x >= bpp else 0
+            if f == 1: line[x] = (line[x] + a) & 255
+            elif f == 2: line[x] = (line[x] + b) & 255
+            elif f == 3: line[x] = (line[x] + (a + b) // 2) & 255
+            elif f == 4:
+                p = a + b - c
+                pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
+                line[x] = (line[x] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
+        rows.append(line)
+        prev = line
+    return w, h, bpp, rows
+
+pointers = [p for p in app.get("pointers", []) if p["name"] == "puller"]
+assert pointers, "the app has no pointer of the peer to show"
+p = pointers[0]
+w, h, bpp, rows = png_rgb(f"{work}/studio.png")
+assert 0 <= p["x"] < w and 0 <= p["y"] < h, f"the peer's pointer is out of the view: {p} in {w}x{h}"
+want = tuple(int(p["colour"][k:k + 2], 16) for k in (1, 3, 5))
+near = sum(1 for y in range(max(0, int(p["y"]) - 40), min(h, int(p["y"]) + 40))
+           for x in range(max(0, int(p["x"]) - 40), min(w, int(p["x"]) + 80))
+           if all(abs(rows[y][bpp * x + k] - want[k]) <= 8 for k in range(3)))
+assert near >= 100, f"only {near} pixels of the peer's colour {p['colour']} near its pointer at ({p['x']:.0f}, {p['y']:.0f})"
+print(f"the app lists the peer, agrees with it at step {app['step']}, its corner reaches x = {reach:.3f} m, and "
+      f"{near} pixels of the peer's colour mark its pointer")
+PY
+echo "failures: $failures"
+[ $failures -eq 0 ]

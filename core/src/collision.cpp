@@ -116,6 +116,33 @@ BodyContact BodyCollider::closest(const Vec3& p, double radius) const {
   return best;
 }
 
+bool BodyCollider::inside(const Vec3& p) const {
+  if (!all_finite(p)) return false;
+  const Box3 bounds = body_->bounds();
+  if (!bounds.contains(p)) return false;
+  const double reach = 1.01 * bounds.diagonal().norm() + 1e-9;
+  // Nearly along axes, so that each ray's box is thin and meets few triangles; off them by odd
+  // angles, so that a ray seldom grazes an edge of a body meshed along the axes.
+  static const Vec3 kRays[3] = {Vec3(1, 0.0123, 0.0071).normalized(), Vec3(-1, 0.0089, -0.0137).normalized(),
+                                Vec3(0.0111, -0.0061, -1).normalized()};
+  const auto& V = body_->vertices();
+  const auto& T = body_->triangles();
+  std::vector<int> tris;
+  int votes = 0;
+  for (const Vec3& dir : kRays) {
+    const Vec3 q = p + reach * dir;
+    triangles_in_box(Box3(p.cwiseMin(q), p.cwiseMax(q)), tris);
+    int crossings = 0;
+    for (int t : tris) {
+      double s;
+      if (!geom::segment_crosses_triangle(p, q, V[T[t][0]], V[T[t][1]], V[T[t][2]], s)) continue;
+      crossings += dir.dot(impl_->normals[t]) > 0 ? 1 : -1;
+    }
+    votes += crossings > 0;
+  }
+  return votes >= 2;
+}
+
 BodyContact BodyCollider::first_crossing(const Vec3& a, const Vec3& b) const {
   BodyContact best;
   if (!all_finite(a) || !all_finite(b)) return best;

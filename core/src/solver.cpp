@@ -834,7 +834,9 @@ ClothMeasures Solver::measure(const Garment& garment) const {
     for (Vertex v : m.vertices()) {
       const BodyContact c = collider_->closest(garment.position(v), radius);
       if (!c.hit) continue;
-      if (c.distance < 0) r.max_penetration = std::max(r.max_penetration, -c.distance);
+      // Inside by the body's volume, not by the side of the closest face, which a game model's
+      // fins of no thickness and inverted faces get wrong (see BodyCollider::inside).
+      if (collider_->inside(garment.position(v))) r.max_penetration = std::max(r.max_penetration, std::abs(c.distance));
       if (c.distance < 1.5 * th) ++r.contacts;
     }
   }

@@ -22,6 +22,7 @@
 #include <cmath>
 #include <iterator>
 #include <limits>
+#include <unordered_map>
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
@@ -51,6 +52,11 @@ Box3 swept_box(const SolverArrays& s, const std::vector<Vec3>& motion, const std
   return Box3(a.cwiseMin(b) - Vec3::Constant(e), a.cwiseMax(b) + Vec3::Constant(e));
 }
 
+// A cell of a uniform grid as one key (21 bits an axis: cells of 2 cm reach 20 km each way).
+std::uint64_t cell_key(std::int64_t x, std::int64_t y, std::int64_t z) {
+  return (std::uint64_t(x & 0x1fffff) << 42) | (std::uint64_t(y & 0x1fffff) << 21) | std::uint64_t(z & 0x1fffff);
+}
+
 void refit(btDbvtNode* node) {
   if (node->isleaf()) return;
   refit(node->childs[0]);
@@ -65,6 +71,8 @@ void set_body(SolverArrays& s, const Body* body) {
   s.body_tris.clear();
   s.body_boxes.clear();
   s.body_bounds.setEmpty();
+  s.body_points.clear();
+  s.point_pairs.clear();
   if (!body) return;
   const auto& V = body->vertices();
   const auto& T = body->triangles();
@@ -80,6 +88,135 @@ void set_body(SolverArrays& s, const Body* body) {
     s.body_tris.push_back(bt);
     s.body_boxes.push_back(b);
     s.body_bounds.extend(b);
+  }
+  // Only a body rounded from a low-poly one has points thinner than the cloth's spacing after
+  // rounding; a fine body's fingertips only catch cloth pulled past them (a sewn armhole).
+  if (body->report().smoothing > 0) find_body_points(s, *body);
+}
+
+// --- The body's sharp points against the cloth's triangles ---
+
+void find_body_points(SolverArrays& s, const Body& body) {
+  s.body_points.clear();
+  const auto& V = body.vertices();
+  const auto& T = body.triangles();
+  // The angle each vertex leaves of a full turn (its angle defect: 0 where the surface is flat).
+  std::vector<double> defect(V.size(), 0.0);
+  std::vector<char> used(V.size(), 0);
+  for (const auto& t : T)
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 u = V[t[(k + 1) % 3]] - V[t[k]], w = V[t[(k + 2) % 3]] - V[t[k]];
+      const double c = u.dot(w) / std::max(1e-300, u.norm() * w.norm());
+      defect[t[k]] -= std::acos(std::clamp(c, -1.0, 1.0));
+      used[t[k]] = 1;
+    }
+  // The body's points: where the defects within kPointRadius sum to over 90 degrees, the curvature
+  // of a cap under 3 cm across: a fingertip, the tip of a horn or of an ear, however finely it is
+  // meshed (a sphere the size of a head sums to 4 degrees there).
+  constexpr double kPointRadius = 0.02;
+  std::unordered_map<std::uint64_t, std::vector<int>> grid;
+  auto cell = [](double c) { return static_cast<std::int64_t>(std::floor(c / kPointRadius)); };
+  auto key = cell_key;
+  for (std::size_t i = 0; i < V.size(); ++i) {
+    if (!used[i]) continue;
+    defect[i] += 2 * M_PI;
+    if (std::abs(defect[i]) > 1e-9) grid[key(cell(V[i].x()), cell(V[i].y()), cell(V[i].z()))].push_back(int(i));
+  }
+  for (std::size_t i = 0; i < V.size(); ++i) {
+    if (!used[i]) continue;
+    double sum = 0;
+    const std::int64_t cx = cell(V[i].x()), cy = cell(V[i].y()), cz = cell(V[i].z());
+    for (std::int64_t x = cx - 1; x <= cx + 1; ++x)
+      for (std::int64_t y = cy - 1; y <= cy + 1; ++y)
+        for (std::int64_t z = cz - 1; z <= cz + 1; ++z) {
+          const auto it = grid.find(key(x, y, z));
+          if (it == grid.end()) continue;
+          for (int j : it->second)
+            if ((V[j] - V[i]).squaredNorm() < kPointRadius * kPointRadius) sum += defect[j];
+        }
+    if (sum > M_PI / 2) s.body_points.push_back(V[i]);
+  }
+}
+
+void gather_point_pairs(SolverArrays& s, double thickness) {
+  s.point_pairs.clear();
+  if (s.body_points.empty()) return;
+  // The points in cells of a grid; each cloth triangle looks in the cells its swept box covers.
+  Box3 points_box;
+  for (const Vec3& p : s.body_points) points_box.extend(p);
+  const double cell = std::max(0.05, 4 * thickness);
+  auto key = cell_key;
+  auto cell_of = [&](double c) { return static_cast<std::int64_t>(std::floor(c / cell)); };
+  std::unordered_map<std::uint64_t, std::vector<int>> grid;
+  for (int k = 0; k < static_cast<int>(s.body_points.size()); ++k) {
+    const Vec3& p = s.body_points[k];
+    grid[key(cell_of(p.x()), cell_of(p.y()), cell_of(p.z()))].push_back(k);
+  }
+  const double pad = 1.5 * thickness;
+  for (int t = 0; t < static_cast<int>(s.tris.size()); ++t) {
+    const auto& f = s.tris[t];
+    if (!s.moving[f[0]] && !s.moving[f[1]] && !s.moving[f[2]]) continue;
+    Box3 b;
+    for (int k = 0; k < 3; ++k) {
+      b.extend(s.x[f[k]]);
+      b.extend(s.x[f[k]] + s.pred[f[k]]);
+    }
+    b.min() -= Vec3::Constant(pad);
+    b.max() += Vec3::Constant(pad);
+    if (!b.intersects(points_box)) continue;
+    for (std::int64_t x = cell_of(b.min().x()); x <= cell_of(b.max().x()); ++x)
+      for (std::int64_t y = cell_of(b.min().y()); y <= cell_of(b.max().y()); ++y)
+        for (std::int64_t z = cell_of(b.min().z()); z <= cell_of(b.max().z()); ++z) {
+          auto it = grid.find(key(x, y, z));
+          if (it == grid.end()) continue;
+          for (int k : it->second) {
+            const Vec3& p = s.body_points[k];
+            if (!b.contains(p)) continue;
+            const Vec3& A = s.x[f[0]];
+            const double side = (s.x[f[1]] - A).cross(s.x[f[2]] - A).dot(p - A) >= 0 ? 1.0 : -1.0;
+            s.point_pairs.push_back({k, t, side});
+          }
+        }
+  }
+}
+
+void resolve_point_pairs(SolverArrays& s, double thickness) {
+  for (const SolverArrays::PointPair& pp : s.point_pairs) {
+    const auto& f = s.tris[pp.t];
+    const Vec3& p = s.body_points[pp.point];
+    Vec3& A = s.x[f[0]];
+    Vec3& B = s.x[f[1]];
+    Vec3& C = s.x[f[2]];
+    Vec3 n = (B - A).cross(C - A);
+    const double len = n.norm();
+    if (!(len > 1e-20)) continue;
+    n *= pp.side / len;  // from the triangle towards the side the point started on
+    const geom::ClosestPoint cp = geom::closest_on_triangle(p, A, B, C);
+    const Vec3 d = p - cp.point;
+    const double dn = d.dot(n);
+    const bool over = cp.b0 > 1e-9 && cp.b1 > 1e-9 && cp.b2 > 1e-9;
+    Vec3 dir;  // the way the triangle moves
+    double depth;
+    if (over && dn < thickness) {
+      // Over the triangle, nearer than the thickness or through it: the triangle moves off the
+      // point, to keep it on the side it started on.
+      dir = -n;
+      depth = thickness - dn;
+    } else {
+      const double d2 = d.squaredNorm();
+      if (over || d2 >= thickness * thickness) continue;
+      const double dist = std::sqrt(d2);
+      dir = dist > 1e-12 ? Vec3(-d / dist) : Vec3(-n);
+      depth = thickness - dist;
+    }
+    const double w0 = s.w[f[0]], w1 = s.w[f[1]], w2 = s.w[f[2]];
+    const double denom = cp.b0 * cp.b0 * w0 + cp.b1 * cp.b1 * w1 + cp.b2 * cp.b2 * w2;
+    if (!(denom > 0)) continue;
+    // At most half the thickness a substep, as for the cloth's own pairs (resolve_pair).
+    const double lambda = std::min(depth, 0.5 * thickness) / denom;
+    A += (w0 * cp.b0 * lambda) * dir;
+    B += (w1 * cp.b1 * lambda) * dir;
+    C += (w2 * cp.b2 * lambda) * dir;
   }
 }
 

@@ -131,6 +131,13 @@ struct SolverArrays {
   std::vector<BodyTri> body_tris;
   std::vector<Box3> body_boxes;
   Box3 body_bounds;
+  // The body's sharp points (find_body_points) and, for a step, the cloth triangles near each.
+  std::vector<Vec3> body_points;
+  struct PointPair {
+    int point, t;
+    double side;  // +1 / -1: the side of the triangle the point was on when the pair was gathered
+  };
+  std::vector<PointPair> point_pairs;
   std::vector<int> cand_start, cand_count, cand;  // per vertex: candidate body triangles
   std::vector<int> contact_verts;                 // vertices with at least one candidate
   std::vector<Box3> box;                          // per vertex: the box its candidates cover
@@ -244,6 +251,13 @@ void gather_body_candidates(SolverArrays& s, const BodyCollider& collider, doubl
 // Pushes vertex i out of the body to `thickness`, on the side it came from (xp), with friction.
 void resolve_body(SolverArrays& s, int i, double thickness, double friction);
 void resolve_body_against(SolverArrays& s, int i, double thickness, double friction, const int* tris, int count);
+// A point of the body thinner than the cloth's spacing (a low-poly fingertip, the tip of a horn)
+// would pass between the cloth's vertices, which alone are kept out of the body, and hold the cloth
+// from inside: the body's sharp points are kept on the side of the cloth's triangles they started
+// on, to the thickness. find_body_points on a new body; the pairs gathered each step.
+void find_body_points(SolverArrays& s, const Body& body);
+void gather_point_pairs(SolverArrays& s, double thickness);
+void resolve_point_pairs(SolverArrays& s, double thickness);
 // Vertices that constraint corrections carried out of the box their candidates were gathered for
 // (a seam closing, the strain limit, a hand), and those too fast to keep candidates: resolved
 // against the body triangles along their actual motion in this substep, so they cannot pass

@@ -346,10 +346,13 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
   });
   {
     PhaseClock clock(s.report.ms.body);
-    if (body && !s.body_tris.empty())
+    if (body && !s.body_tris.empty()) {
       gather_body_candidates(s, *body, th);
-    else
+      gather_point_pairs(s, th);
+    } else {
       s.contact_verts.clear();
+      s.point_pairs.clear();
+    }
   }
   s.self_pairs.clear();
   const int window = self_window(s, p, th);
@@ -501,6 +504,9 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
       });
       resolve_self(s, th);
     }
+    // The body's points before the strain limit: a cloth hanging on a point is lifted by it, and
+    // the limit then takes back what the lift stretched.
+    if (!s.point_pairs.empty()) resolve_point_pairs(s, th);
     if (p.strain_limit > 0) {
       PhaseClock clock(s.report.ms.strain_limit);
       limit_strain(s, cs, p.strain_limit);

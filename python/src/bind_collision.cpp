@@ -58,7 +58,10 @@ void bind_collision(py::module_& m) {
       }, py::arg("point"), py::arg("radius"), "The body point closest to a point within radius (hit False if none).")
       .def("first_crossing", [](const PyCollider& c, py::handle a, py::handle b) {
         return c.collider->first_crossing(to_vec3(a, "a"), to_vec3(b, "b"));
-      }, py::arg("a"), py::arg("b"), "The first body triangle the segment a -> b crosses (hit False if none).");
+      }, py::arg("a"), py::arg("b"), "The first body triangle the segment a -> b crosses (hit False if none).")
+      .def("inside", [](const PyCollider& c, py::handle p) { return c.collider->inside(to_vec3(p, "point")); },
+           py::arg("point"),
+           "Whether a point is inside the body's volume (by rays, right on fins of no thickness and inverted faces).");
 
   auto body = py::reinterpret_borrow<py::class_<Body, std::shared_ptr<Body>>>(m.attr("Body"));
   body.def_property_readonly("triangle_normals", [](const Body& b) {

@@ -229,6 +229,7 @@ def test_body_queries_and_picking():
     assert not c.closest((0.0, 0.5, 0.5), 0.1)
     crossing = c.first_crossing((0, 0.5, 1.0), (0, 0.5, 0))
     assert crossing and crossing.point[2] == pytest.approx(0.2)
+    assert c.inside((0.0, 0.5, 0.0)) and not c.inside((0.0, 0.5, 0.25))
     assert len(c.triangles_in_box([[-1, -1, 0.15], [1, 2, 1]])) >= 2
     np.testing.assert_allclose(np.linalg.norm(body.triangle_normals, axis=1), 1.0)
     a = kiji.rectangle(1, 1, nx=3, ny=3)

@@ -826,23 +826,17 @@ inline void resolve_pair(SolverArrays& s, const SolverArrays::SelfPair& p, doubl
 
 }  // namespace
 
-// The pairs in slabs across the cloth's longest side, each with as many pairs (the slabs' bounds
-// are the quantiles of the pairs' vertices along it), in three stages:
-//  1. the pairs whose four vertices (the vertex and the triangle's corners) are all in one slab,
-//     the slabs together: a pair of one slab shares no vertex with another slab's;
-//  2. those across two neighbouring slabs: first those across slabs 0-1, 2-3, 4-5, ... together,
-//     then those across 1-2, 3-4, ... (the pairs of one run and another's touch different slabs);
-//  3. the few that reach across more than two, in sequence.
-// Each run keeps the gathered order. Sixteen slabs give sixteen threads work in the first stage and
-// eight in the second, and leave few pairs for the third. The slabs do not depend on the thread
-// count, nor so the result.
+// The pairs in slabs across the cloth's longest side, each with as many pairs: a pair whose four
+// vertices (the vertex and the triangle's corners) are all in one slab shares none with a pair of
+// another slab, and the slabs are resolved in parallel, each in the gathered order; the pairs
+// across two slabs after them, in sequence. The slabs do not depend on the thread count, nor so
+// the result.
 void partition_self_pairs(SolverArrays& s) {
   const std::size_t np = s.self_pairs.size();
   s.self_runs.assign(1, 0);
-  s.self_stages.assign(1, 0);
   if (np < kParallelSelfPairs) {  // too few to be worth it: in sequence, as gathered
     s.self_runs.push_back(static_cast<int>(np));
-    s.self_stages.push_back(1);
+    s.self_runs_serial_from = 0;
     return;
   }
   Box3 box;
@@ -855,69 +849,45 @@ void partition_self_pairs(SolverArrays& s) {
     const double c = s.x[s.self_pairs[q].v][axis];
     key[q] = std::isfinite(c) ? c : 0.0;  // a diverging vertex (caught after the step) keeps the sort sound
   }
-  // The quantiles k / kSelfSlabs, each range split at its middle quantile and its halves in turn.
   double bound[kSelfSlabs - 1];
-  auto split = [&](auto& self, int k0, int k1, std::size_t lo, std::size_t hi) -> void {
-    if (k1 - k0 < 2) return;
-    const int k = (k0 + k1) / 2;
-    const std::size_t at = np * k / kSelfSlabs;
-    std::nth_element(key.begin() + lo, key.begin() + at, key.begin() + hi);
-    bound[k - 1] = key[at];
-    self(self, k0, k, lo, at);
-    self(self, k, k1, at, hi);
+  for (int k = 1; k < kSelfSlabs; ++k) {
+    auto at = key.begin() + static_cast<std::ptrdiff_t>(np * k / kSelfSlabs);
+    std::nth_element(key.begin(), at, key.end());
+    bound[k - 1] = *at;
+  }
+  auto slab = [&](int v) {
+    return static_cast<int>(std::upper_bound(std::begin(bound), std::end(bound), s.x[v][axis]) - bound);
   };
-  split(split, 0, kSelfSlabs, 0, np);
-  auto slab_of = [&](int v) {
-    const double c = s.x[v][axis];
-    return static_cast<unsigned char>(std::upper_bound(std::begin(bound), std::end(bound), std::isfinite(c) ? c : 0.0) -
-                                      bound);
-  };
-  // Run of a pair: its slab (stage 1), kSelfSlabs + its lower slab (stage 2), or 2 kSelfSlabs (3).
-  constexpr int kAcross = kSelfSlabs, kFar = 2 * kSelfSlabs;
   s.pair_slab.resize(np);
-  parallel::for_range(static_cast<int>(np), 4096, [&](int b, int e) {
-    for (int q = b; q < e; ++q) {
-      const auto& p = s.self_pairs[q];
-      const auto& tri = s.tris[p.t];
-      const int a = slab_of(p.v), b0 = slab_of(tri[0]), b1 = slab_of(tri[1]), b2 = slab_of(tri[2]);
-      const int lo = std::min({a, b0, b1, b2}), hi = std::max({a, b0, b1, b2});
-      s.pair_slab[q] = static_cast<unsigned char>(lo == hi ? lo : hi == lo + 1 ? kAcross + lo : kFar);
-    }
-  });
-  // The runs in the order they are resolved: stage 1's slabs, stage 2's even lower slabs, its odd
-  // ones, stage 3.
-  int run_of[kFar + 1], at[kFar + 2] = {0};
-  int r = 0;
-  for (int k = 0; k < kSelfSlabs; ++k) run_of[k] = r++;
-  for (int k = 0; k + 1 < kSelfSlabs; k += 2) run_of[kAcross + k] = r++;
-  for (int k = 1; k + 1 < kSelfSlabs; k += 2) run_of[kAcross + k] = r++;
-  run_of[kAcross + kSelfSlabs - 1] = -1;  // no slab above the last
-  run_of[kFar] = r++;
-  const int runs = r;
-  int count[kFar + 1] = {0};
-  for (std::size_t q = 0; q < np; ++q) ++count[run_of[s.pair_slab[q]]];
-  for (int k = 0; k < runs; ++k) at[k + 1] = at[k] + count[k];
-  s.self_runs.assign(at, at + runs + 1);
+  int count[kSelfSlabs + 1] = {0};
+  for (std::size_t q = 0; q < np; ++q) {
+    const auto& p = s.self_pairs[q];
+    const auto& tri = s.tris[p.t];
+    const int k = slab(p.v);
+    const int c = (slab(tri[0]) == k && slab(tri[1]) == k && slab(tri[2]) == k) ? k : kSelfSlabs;
+    s.pair_slab[q] = static_cast<unsigned char>(c);
+    ++count[c];
+  }
+  int at[kSelfSlabs + 1] = {0};
+  for (int c = 0; c < kSelfSlabs; ++c) at[c + 1] = at[c] + count[c];
   s.pair_scratch.resize(np);
-  for (std::size_t q = 0; q < np; ++q) s.pair_scratch[at[run_of[s.pair_slab[q]]]++] = s.self_pairs[q];
+  for (std::size_t q = 0; q < np; ++q) s.pair_scratch[at[s.pair_slab[q]]++] = s.self_pairs[q];
   s.self_pairs.swap(s.pair_scratch);
-  const int even = (kSelfSlabs) / 2, odd = (kSelfSlabs - 1) / 2;
-  s.self_stages = {0, kSelfSlabs, kSelfSlabs + even, kSelfSlabs + even + odd, runs};
+  for (int c = 0; c < kSelfSlabs; ++c) s.self_runs.push_back(at[c]);
+  s.self_runs_serial_from = kSelfSlabs;
+  s.self_runs.push_back(static_cast<int>(np));
 }
 
 void resolve_self(SolverArrays& s, double thickness) {
   if (s.self_runs.empty() || s.self_runs.back() != static_cast<int>(s.self_pairs.size())) partition_self_pairs(s);
-  for (std::size_t k = 0; k + 1 < s.self_stages.size(); ++k) {
-    const int r0 = s.self_stages[k], r1 = s.self_stages[k + 1];
-    auto run = [&](int r) {
+  const int runs = static_cast<int>(s.self_runs.size()) - 1;
+  const int together = std::min(runs, s.self_runs_serial_from);
+  parallel::for_range(together, 1, [&](int r0, int r1) {
+    for (int r = r0; r < r1; ++r)
       for (int q = s.self_runs[r]; q < s.self_runs[r + 1]; ++q) resolve_pair(s, s.self_pairs[q], thickness);
-    };
-    if (r1 - r0 == 1 || s.self_runs[r1] - s.self_runs[r0] < static_cast<int>(kParallelSelfPairs) / 4) {
-      for (int r = r0; r < r1; ++r) run(r);
-    } else {
-      parallel::for_each(r1 - r0, [&](int k2) { run(r0 + k2); });
-    }
-  }
+  });
+  for (int r = together; r < runs; ++r)
+    for (int q = s.self_runs[r]; q < s.self_runs[r + 1]; ++q) resolve_pair(s, s.self_pairs[q], thickness);
 }
 
 }  // namespace kiji::solver_detail

@@ -185,10 +185,11 @@ struct SolverArrays {
     double d0;    // their distance then
   };
   std::vector<SelfPair> self_pairs;
-  // The pairs in runs [self_runs[r], self_runs[r + 1]), the runs in stages [self_stages[k],
-  // self_stages[k + 1]): the runs of a stage share no vertex and are resolved together, the stages
-  // one after the other (see partition_self_pairs).
-  std::vector<int> self_runs, self_stages;
+  // The pairs in runs [self_runs[r], self_runs[r + 1]): those before self_runs_serial_from share
+  // no vertex with another run's and are resolved together; the rest in sequence (see
+  // partition_self_pairs).
+  std::vector<int> self_runs;
+  int self_runs_serial_from = 0;
   std::vector<double> pair_key;
   std::vector<unsigned char> pair_slab;
   std::vector<SelfPair> pair_scratch;
@@ -277,10 +278,9 @@ void resolve_self(SolverArrays& s, double thickness);
 // Orders the gathered pairs in slabs for resolve_self (after each gather).
 void partition_self_pairs(SolverArrays& s);
 // Fewer pairs than this are resolved in sequence as gathered; more, in this many slabs (a pen's
-// local stroke at 20,000 vertices gathers 13 to 12,700 pairs, median 2,800). The slabs are as many
-// whatever the thread count, and so is the result.
+// local stroke at 20,000 vertices gathers 13 to 12,700 pairs, median 2,800).
 constexpr std::size_t kParallelSelfPairs = 2048;
-constexpr int kSelfSlabs = 16;
+constexpr int kSelfSlabs = 4;
 // Sleeping (solver_sleep.cpp). Before a step, after the mesh is mirrored: wakes every block when the
 // physics changed or the arrays were rebuilt, and the blocks that `disturbed` marks; then clears
 // `moving` of the vertices asleep. After the step: wakes the sleeping neighbours of cloth that moved,

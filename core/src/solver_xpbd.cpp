@@ -205,15 +205,9 @@ void limit_strain(SolverArrays& s, const Constraints& cs, double limit) {
         for (int q = 0; q < count; ++q) found[q] = {o[q], cs.e_i[o[q]], cs.e_j[o[q]], cs.e_rest[o[q]]};
       }
     });
-    // Joined in order, each piece copied to its place in parallel: in a 100,000-vertex landing
-    // nearly half the edges are beyond the limit, too many to copy on one thread four times a substep.
-    int found_at[33] = {0};
+    s.over.clear();
     for (int piece = 0; piece < pieces; ++piece)
-      found_at[piece + 1] = found_at[piece] + static_cast<int>(s.over_found[piece].size());
-    s.over.resize(found_at[pieces]);
-    parallel::for_each(pieces, [&](int piece) {
-      std::copy(s.over_found[piece].begin(), s.over_found[piece].end(), s.over.begin() + found_at[piece]);
-    });
+      s.over.insert(s.over.end(), s.over_found[piece].begin(), s.over_found[piece].end());
     if (round == 0) s.report.strain_limited += s.over.size();
     if (s.over.empty()) return;
     // The offending edges are in edge order: they fall in the edges' ranges, and each range's run

@@ -40,7 +40,7 @@ class PyPeer {
     return py::make_tuple(runner_->played(), runner_->play_dropped(), runner_->play_error());
   }
   std::string error() const { return runner_ ? runner_->error() : std::string(); }
-  // Polls `ready` every 10 ms with the GIL released; false at the timeout.
+  // Polls `ready` with the GIL released, so that the peer's thread can run Python tools; false at the timeout.
   bool wait(const std::function<bool(Peer&)>& ready, double timeout) {
     const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout);
     for (;;) {

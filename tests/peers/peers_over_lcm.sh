@@ -36,7 +36,7 @@ unshare -rn bash -euo pipefail -c '
   wait
 '
 python3 - "$work" "$here/pull_corner.json" <<'PY'
-import json, struct, sys
+import json, os, struct, sys
 work = sys.argv[1]
 names = ["host", "viewer", "puller"]
 runs = {}
@@ -56,16 +56,9 @@ events = len(json.load(open(sys.argv[2]))["strokes"][0]["events"])
 assert runs["puller"]["replayed_events"] == events, "the puller did not send its whole stroke"
 assert all(not r["refusals"] and r["divergences"] == 0 for r in runs.values())
 
-def glb_positions(path):
-    # The first accessor of the first mesh's POSITION: enough to find the pulled corner.
-    data = open(path, "rb").read()
-    jlen = struct.unpack_from("<I", data, 12)[0]
-    doc = json.loads(data[20:20 + jlen])
-    binary = data[20 + jlen + 8:]
-    acc = doc["accessors"][doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"]]
-    view = doc["bufferViews"][acc["bufferView"]]
-    start = view.get("byteOffset", 0) + acc.get("byteOffset", 0)
-    return [struct.unpack_from("<3f", binary, start + 12 * i) for i in range(acc["count"])]
+# The helper beside pull_corner.json (tests/peers).
+sys.path.insert(0, os.path.dirname(os.path.abspath(sys.argv[2])))
+from glb_positions import glb_positions
 
 garments = {n: glb_positions(f"{work}/{n}.glb") for n in names}
 assert garments["host"] == garments["viewer"] == garments["puller"], "the written garments differ"

@@ -63,7 +63,7 @@ unshare -rn bash -uo pipefail -c '
 [ "$(cat "$work/puller.rc" 2>/dev/null)" = 0 ] || { fail "the peer exited $(cat "$work/puller.rc" 2>/dev/null)"; cat "$work/puller.err"; }
 [ "$(cat "$work/key_mode.txt" 2>/dev/null)" = 600 ] || fail "the key file the app made has mode $(cat "$work/key_mode.txt" 2>/dev/null), not 600"
 python3 - "$work" "$here/../peers/pull_corner.json" <<'PY' || failures=$((failures + 1))
-import json, struct, sys, zlib
+import json, os, struct, sys, zlib
 work = sys.argv[1]
 app = json.load(open(f"{work}/peers.json"))
 peer = json.loads(open(f"{work}/puller.json").read().strip())
@@ -80,15 +80,9 @@ assert peer["replayed_events"] == events and not peer["refusals"], "the peer did
 assert app["step"] == peer["steps"] >= 360, f"the shared clock stopped at {app['step']} / {peer['steps']}"
 assert int(app["state_hash"], 16) == peer["state_hash"], "the app and the peer ended with different states"
 
-def glb_positions(path):
-    data = open(path, "rb").read()
-    jlen = struct.unpack_from("<I", data, 12)[0]
-    doc = json.loads(data[20:20 + jlen])
-    binary = data[20 + jlen + 8:]
-    acc = doc["accessors"][doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"]]
-    view = doc["bufferViews"][acc["bufferView"]]
-    start = view.get("byteOffset", 0) + acc.get("byteOffset", 0)
-    return [struct.unpack_from("<3f", binary, start + 12 * i) for i in range(acc["count"])]
+# The helper beside pull_corner.json (tests/peers).
+sys.path.insert(0, os.path.dirname(os.path.abspath(sys.argv[2])))
+from glb_positions import glb_positions
 
 mine, theirs = glb_positions(f"{work}/studio.glb"), glb_positions(f"{work}/puller.glb")
 assert mine == theirs, "the garment the app exported differs from the peer's"

@@ -19,6 +19,9 @@ double seconds_now() {
 // How long the thread waits for a message before it ticks anyway: the engine's timers and the
 // shared clock need ticks much finer than a frame, and waiting longer would delay their steps.
 constexpr int kWaitMs = 1;
+// After holding the session this long, the thread lets go of it this long.
+constexpr double kLongHoldSeconds = 0.01;
+constexpr int kYieldMs = 2;
 }  // namespace
 
 // Sends from a thread of its own, paced: a snapshot's thousands of chunks leave while the peer
@@ -97,13 +100,20 @@ void PeerRunner::run() {
   try {
     while (!stop_.load()) {
       std::vector<std::string> messages = bus_->receive(kWaitMs);
-      std::lock_guard<std::recursive_mutex> lock(session_.mutex());
-      const double now = seconds_now();
-      for (const std::string& m : messages)
-        if (loss_ == 0 || uniform(random) >= loss_) peer_->receive(m, now);
-      for (const std::string& record : bus_->side_messages()) play(record);
-      peer_->tick(now);
-      joined_ = peer_->joined();
+      double held = 0;
+      {
+        std::lock_guard<std::recursive_mutex> lock(session_.mutex());
+        const double now = seconds_now();
+        for (const std::string& m : messages)
+          if (loss_ == 0 || uniform(random) >= loss_) peer_->receive(m, now);
+        for (const std::string& record : bus_->side_messages()) play(record);
+        peer_->tick(now);
+        joined_ = peer_->joined();
+        held = seconds_now() - now;
+      }
+      // A mutex hands itself to no one: after a long step this thread would take the lock again
+      // before a user waiting for it woke, and a user's change could wait for many steps.
+      if (held > kLongHoldSeconds) std::this_thread::sleep_for(std::chrono::milliseconds(kYieldMs));
     }
   } catch (const std::exception& e) {
     // A step the solver refuses, or the network failing: the peer stops here, the session is kept.

@@ -6,8 +6,9 @@
 #
 # Everything the build compiles is instrumented, libkiji, the tools and the tests alike. Any report
 # ends the process with an error (-fno-sanitize-recover), so a finding fails its test. With clang the
-# sanitizer runtime is the shared one (-shared-libsan): the tool plugins link with --no-undefined,
-# and a Python interpreter can preload the same runtime the module uses.
+# ASan/UBSan runtime is the shared one (-shared-libsan): the tool plugins link with --no-undefined,
+# and a Python interpreter can preload the same runtime the module uses. ThreadSanitizer keeps its
+# static runtime: the shared one initialises after glib's constructors, whose first malloc crashes it.
 include_guard(GLOBAL)
 
 set(KIJI_SANITIZE "" CACHE STRING "Sanitizers to build with: address,undefined or thread (empty: none)")
@@ -31,7 +32,7 @@ if(KIJI_SANITIZE)
   set(kiji_sanitize_flags -fsanitize=${KIJI_SANITIZE} -fno-sanitize-recover=all -fno-omit-frame-pointer)
   add_compile_options(${kiji_sanitize_flags} -gline-tables-only)
   add_link_options(${kiji_sanitize_flags})
-  if(CMAKE_CXX_COMPILER_ID STREQUAL "Clang")
+  if(CMAKE_CXX_COMPILER_ID STREQUAL "Clang" AND NOT KIJI_SANITIZE STREQUAL "thread")
     add_link_options(-shared-libsan)
     # The shared runtime lives in clang's own folder, which the loader does not search.
     execute_process(COMMAND ${CMAKE_CXX_COMPILER} -print-runtime-dir OUTPUT_VARIABLE kiji_sanitizer_runtime_dir

@@ -52,8 +52,9 @@ function(kiji_add_tool id)
     VISIBILITY_INLINES_HIDDEN ON
     # Installed beside libkiji's folder: lib/kiji/plugins -> lib.
     INSTALL_RPATH "$ORIGIN/../..")
-  if(CMAKE_SYSTEM_NAME STREQUAL "Linux")
+  if(CMAKE_SYSTEM_NAME STREQUAL "Linux" AND NOT KIJI_SANITIZE STREQUAL "thread")
     # A symbol missing from the plugin is a link error here rather than a refusal at load time.
+    # (Not under ThreadSanitizer: its static runtime lives in the executable, not in the plugin.)
     target_link_options(${target} PRIVATE "LINKER:--no-undefined")
   endif()
 

@@ -88,16 +88,17 @@ TEST(Parallel, AnExceptionInALoopNestedInAPieceReachesTheOuterCaller) {
 
 TEST(Parallel, TheTimeInSharedLoopsIsCounted) {
   const double before = parallel::shared_seconds();
-  volatile double sink = 0;
+  // Atomic: every worker writes it, and it only keeps the sums from being optimised away.
+  std::atomic<double> sink{0};
   parallel::for_range(1 << 20, 1024, [&](int b, int e) {
     double s = 0;
     for (int i = b; i < e; ++i) s += 1.0 / (1 + i);
-    sink = sink + s;
+    sink.store(sink.load(std::memory_order_relaxed) + s, std::memory_order_relaxed);
   });
   EXPECT_GT(parallel::shared_seconds(), before);
   // A loop too small to share is not counted: it runs on the caller alone, on any machine.
   const double after = parallel::shared_seconds();
-  parallel::for_range(10, 64, [&](int, int) { sink = sink + 1; });
+  parallel::for_range(10, 64, [&](int, int) { sink.store(sink.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed); });
   EXPECT_EQ(parallel::shared_seconds(), after);
 }
 

@@ -347,3 +347,27 @@ TEST(Peers, ASharedSessionsClockIsThePeersAndBadOptionsAreRefused) {
   EXPECT_FALSE(s.gated()) << "the session is its user's again";
   s.step();
 }
+
+// A peer whose steps take longer than a frame (a large garment) must still hear the others and send
+// between steps: catching up after a stall, a tick stops stepping once it has used a frame's time
+// on the peer's clock, where without a clock it steps as far as it may.
+TEST(Peers, APeerBehindItsClockStepsAFrameATimeSoItsMessagesAreNotHeldUp) {
+  auto steps_in_one_tick_after_a_stall = [](bool with_clock) {
+    Session s(plugins());
+    host_garment(s);
+    SimNetwork net(1, {});
+    net.add_node();
+    PeerOptions o;
+    o.key = kKey;
+    o.host = true;
+    double spent = 0;  // the clock moves 30 ms between readings: a step longer than a frame
+    if (with_clock) o.clock = [&] { return net.now() + (spent += 0.03); };
+    Peer p(s, net.port(0), o);
+    for (int ms = 0; ms <= 200; ++ms) p.tick(ms * 0.001);
+    const std::uint64_t before = s.steps();
+    p.tick(0.5);  // 300 ms stalled: 18 frames behind
+    return s.steps() - before;
+  };
+  EXPECT_EQ(steps_in_one_tick_after_a_stall(true), 1u);
+  EXPECT_GT(steps_in_one_tick_after_a_stall(false), 1u);
+}

@@ -82,7 +82,7 @@ struct BenchPeer {
     std::lock_guard<std::recursive_mutex> lock(session.mutex());
     return f(session);
   }
-  bool joined() { return runner->with_peer([](Peer& p) { return p.joined(); }); }
+  bool joined() const { return runner->joined(); }
   PeerStats stats() { return runner->with_peer([](Peer& p) { return p.stats(); }); }
 };
 

@@ -107,8 +107,8 @@ struct Run {
     check(studio.share_session(settings), o.host ? "--host" : "--join");
   }
 
-  // A host's scripted run with --seconds is over once the shared clock stopped and every peer
-  // agrees there (as kiji peer's --seconds).
+  // A host's scripted run with --seconds, and a joiner's when its host set one, is over once the
+  // shared clock stopped and every peer agrees there (as kiji peer's --seconds).
   bool shared_run_done() const {
     const auto view = studio.peer_view();
     return view && view->stop_step > 0 && view->step >= view->stop_step && view->converged;
@@ -175,7 +175,7 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "kiji-studio: the shared clock had not stopped with every peer agreeing after --quit-after\n");
       finish();
     });
-    if (options.host && options.seconds > 0) {
+    if ((options.host && options.seconds > 0) || options.join) {
       auto* done = new QTimer(&app);
       QObject::connect(done, &QTimer::timeout, &app, [&] {
         if (run.shared_run_done()) finish();

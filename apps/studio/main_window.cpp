@@ -313,7 +313,14 @@ void MainWindow::update_status() {
     for (const PeerRow& p : peers->peers) present += p.present;
     status_shared_->setText(!peers->joined ? QString("joining...")
                                            : QString("shared with %1 other%2").arg(present - 1).arg(present == 2 ? "" : "s"));
+    // On the console too, so that a script running the app knows when it is in the shared session.
+    if (peers->joined && !said_joined_) {
+      std::printf("kiji-studio: in the shared session at step %llu\n", static_cast<unsigned long long>(peers->step));
+      std::fflush(stdout);
+    }
+    said_joined_ = peers->joined;
   } else {
+    said_joined_ = false;
     status_shared_->setText(studio_.shared() ? "sharing..." : "");
   }
   status_tool_->setText(QString("tool: %1").arg(tool.empty() ? "none" : QString::fromStdString(studio_.tools().info(tool).label)));

@@ -81,6 +81,7 @@ class MainWindow : public QMainWindow {
   PhantomOptions phantom_options_;
   QStringList errors_;
   std::uint64_t last_haptic_ticks_ = 0;
+  bool said_joined_ = false;  // the console line for a shared session joined is written once a join
   qint64 last_haptic_time_ = 0;
 };
 

@@ -22,7 +22,7 @@ constexpr double kJoinWaitForStrokes = 2.0;
 constexpr std::size_t kInlinePayload = 900;    // larger ordered payloads go as blobs
 constexpr std::size_t kKeepApplied = 8192;     // applied orders kept to repair others' gaps
 constexpr std::size_t kMaxNackRange = 64;
-constexpr std::size_t kChunkBurst = 256;       // blob chunks sent a tick at most
+constexpr std::size_t kChunkBurst = 4096;      // blob chunks handed to the transport a tick at most
 constexpr int kMaxStepsPerTick = 8;            // catching up, a tick steps at most this many
 
 ToolEvent cancel_event(double time) {
@@ -153,6 +153,7 @@ struct Peer::Impl {
   };
   std::map<std::uint64_t, Blob> blobs;
   std::deque<std::pair<std::uint64_t, std::uint32_t>> outgoing;
+  std::set<std::pair<std::uint64_t, std::uint32_t>> queued;  // what outgoing holds
 
   // --- joining ---
   bool have_offer = false;
@@ -235,13 +236,15 @@ struct Peer::Impl {
       b.complete = true;
     }
     b.mine = true;
-    for (std::uint32_t i = 0; i < b.count; ++i) outgoing.emplace_back(hash, i);
+    for (std::uint32_t i = 0; i < b.count; ++i)
+      if (queued.insert({hash, i}).second) outgoing.emplace_back(hash, i);
   }
 
   void send_chunks() {
     for (std::size_t n = 0; n < kChunkBurst && !outgoing.empty(); ++n) {
       const auto [hash, index] = outgoing.front();
       outgoing.pop_front();
+      queued.erase({hash, index});
       auto it = blobs.find(hash);
       if (it == blobs.end() || !it->second.complete) continue;
       const Blob& b = it->second;
@@ -586,9 +589,13 @@ struct Peer::Impl {
   void on_blob_nack(const BlobNack& n) {
     auto it = blobs.find(n.hash);
     if (it == blobs.end() || !it->second.complete || (!it->second.mine && sequencer != id)) return;
+    // A chunk still waiting its turn is not queued twice: a receiver asks again while a burst is
+    // under way, and duplicates would push the rest of the blob back.
     for (std::uint32_t i : n.missing)
-      if (i < it->second.count) outgoing.emplace_front(n.hash, i);
-    stats.resent += n.missing.size();
+      if (i < it->second.count && queued.insert({n.hash, i}).second) {
+        outgoing.emplace_front(n.hash, i);
+        ++stats.resent;
+      }
   }
 
   void on_hash(std::uint32_t from, const HashReport& h) {
@@ -831,6 +838,7 @@ struct Peer::Impl {
       offers[t] = {s, session.steps(), now};
       send(kState, encode(s));
     }
+    send_chunks();  // now, not after this peer's own rebuild and next step
   }
 
   void try_load_offer() {
@@ -861,7 +869,9 @@ struct Peer::Impl {
 
   // Applies what is due and steps the shared clock as far as it may go now.
   void advance() {
+    const double began = opt.clock ? opt.clock() : 0;
     for (int n = 0; n < kMaxStepsPerTick; ++n) {
+      if (n > 0 && opt.clock && opt.clock() - began >= 1.0 / session.frame_rate()) break;
       // Everything ordered for this step, in order.
       for (;;) {
         auto it = ordered.find(applied);
@@ -896,6 +906,7 @@ struct Peer::Impl {
       const bool behind = !seq && sequencer_clock() > s;
       if (opt.real_time && !behind && now + 1e-9 < next_step_time) break;
       session.step(this);
+      send_chunks();  // a snapshot's chunks go out between steps, not only once a tick
       if (opt.real_time)
         next_step_time = behind ? now + 1.0 / session.frame_rate()
                                 : std::max(next_step_time + 1.0 / session.frame_rate(), now - 0.25);

@@ -57,5 +57,6 @@ with kiji.Peer(ana_session, key=KEY, host=True, name="ana", stop_step=STOP) as a
     out["dropped"] = ana.stats()["dropped"]
 # Closed: the sessions are their users' own again.
 ben_session.step()
+out["stop"] = STOP
 out["steps_after"] = ben_session.steps
 print(json.dumps(out))

@@ -4,7 +4,8 @@
 # `kiji peer` joins and pulls a corner of the cloth off the head (a journal's stroke, replayed in real
 # time). Passes when the app lists the peer, its exported garment has the corner moved and equals
 # the peer's, their state hashes are equal, and its picture shows the peer's pointer in its colour.
-# Then bad input: a key file that does not exist, a network LCM cannot open.
+# Then two apps share one session (one hosts, the other joins) and end with the same cloth. Before
+# both, bad input: a key file that does not exist, a network LCM cannot open.
 #   usage: peers_in_studio.sh STUDIO KIJI WORK_DIR XVFB_RUN
 set -uo pipefail
 studio=$1 kiji=$2 work=$3 xvfb_run=$4
@@ -62,8 +63,8 @@ unshare -rn bash -uo pipefail -c '
 [ "$(cat "$work/studio.rc" 2>/dev/null)" = 0 ] || { fail "the app exited $(cat "$work/studio.rc" 2>/dev/null)"; cat "$work/studio.txt"; }
 [ "$(cat "$work/puller.rc" 2>/dev/null)" = 0 ] || { fail "the peer exited $(cat "$work/puller.rc" 2>/dev/null)"; cat "$work/puller.err"; }
 [ "$(cat "$work/key_mode.txt" 2>/dev/null)" = 600 ] || fail "the key file the app made has mode $(cat "$work/key_mode.txt" 2>/dev/null), not 600"
-python3 - "$work" "$here/../peers/pull_corner.json" <<'PY' || failures=$((failures + 1))
-import json, os, struct, sys, zlib
+python3 - "$work" "$here/../peers/pull_corner.json" "$here" <<'PY' || failures=$((failures + 1))
+import json, os, sys
 work = sys.argv[1]
 app = json.load(open(f"{work}/peers.json"))
 peer = json.loads(open(f"{work}/puller.json").read().strip())
@@ -83,56 +84,84 @@ assert int(app["state_hash"], 16) == peer["state_hash"], "the app and the peer e
 # The helper beside pull_corner.json (tests/peers).
 sys.path.insert(0, os.path.dirname(os.path.abspath(sys.argv[2])))
 from glb_positions import glb_positions
+sys.path.insert(0, sys.argv[3])
+from png_rgb import png_rgb, pixels_near
 
 mine, theirs = glb_positions(f"{work}/studio.glb"), glb_positions(f"{work}/puller.glb")
 assert mine == theirs, "the garment the app exported differs from the peer's"
 reach = max(p[0] for p in mine)
 assert reach > 0.45, f"the remote stroke did not move the app's cloth: the corner reaches x = {reach:.3f} m"
 
-def png_rgb(path):
-    # 8-bit RGB or RGBA, not interlaced: what Qt writes.
-    data = open(path, "rb").read()
-    pos, idat, w = 8, b"", 0
-    while pos < len(data):
-        n, kind = struct.unpack_from(">I4s", data, pos)
-        body = data[pos + 8:pos + 8 + n]
-        if kind == b"IHDR":
-            w, h, depth, ctype = struct.unpack_from(">IIBB", body)
-            assert depth == 8 and ctype in (2, 6), (depth, ctype)
-            bpp = 3 if ctype == 2 else 4
-        elif kind == b"IDAT":
-            idat += body
-        pos += 12 + n
-    raw, rows, prev, i = zlib.decompress(idat), [], bytearray(w * bpp), 0
-    for y in range(h):
-        f, line = raw[i], bytearray(raw[i + 1:i + 1 + w * bpp])
-        i += 1 + w * bpp
-        for x in range(len(line)):
-            a = line[x - bpp] if x >= bpp else 0
-            b, c = prev[x], prev[x - bpp] if x >= bpp else 0
-            if f == 1: line[x] = (line[x] + a) & 255
-            elif f == 2: line[x] = (line[x] + b) & 255
-            elif f == 3: line[x] = (line[x] + (a + b) // 2) & 255
-            elif f == 4:
-                p = a + b - c
-                pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
-                line[x] = (line[x] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
-        rows.append(line)
-        prev = line
-    return w, h, bpp, rows
-
 pointers = [p for p in app.get("pointers", []) if p["name"] == "puller"]
 assert pointers, "the app has no pointer of the peer to show"
 p = pointers[0]
-w, h, bpp, rows = png_rgb(f"{work}/studio.png")
+w, h, _, _ = png_rgb(f"{work}/studio.png")
 assert 0 <= p["x"] < w and 0 <= p["y"] < h, f"the peer's pointer is out of the view: {p} in {w}x{h}"
-want = tuple(int(p["colour"][k:k + 2], 16) for k in (1, 3, 5))
-near = sum(1 for y in range(max(0, int(p["y"]) - 40), min(h, int(p["y"]) + 40))
-           for x in range(max(0, int(p["x"]) - 40), min(w, int(p["x"]) + 80))
-           if all(abs(rows[y][bpp * x + k] - want[k]) <= 8 for k in range(3)))
+near = pixels_near(f"{work}/studio.png", p["x"], p["y"], p["colour"])
 assert near >= 100, f"only {near} pixels of the peer's colour {p['colour']} near its pointer at ({p['x']:.0f}, {p['y']:.0f})"
 print(f"the app lists the peer, agrees with it at step {app['step']}, its corner reaches x = {reach:.3f} m, and "
       f"{near} pixels of the peer's colour mark its pointer")
+PY
+
+echo "4. two apps: one hosts, the other joins, a kiji peer pulls a corner; both apps end with the same cloth"
+mkdir -p "$work/two"
+unshare -rn bash -uo pipefail -c '
+  ip link set lo up
+  ip link set lo multicast on
+  ip route add 224.0.0.0/4 dev lo
+  w=$KIJI_WORK/two
+  "$KIJI_XVFB_RUN" -a -s "-screen 0 1600x1200x24" "$KIJI_STUDIO" --window 1000x700 \
+    --body /usr/share/assimp/models/Collada/human.zae --garment rect:0.6,0.6,0.02 --device none \
+    --host --name ana --key-file "$w/session.key" --seconds 8 --quit-after 90 \
+    --export "$w/ana.glb" --save-peers "$w/ana.json" > "$w/ana.txt" 2>&1 &
+  ana=$!
+  for i in $(seq 300); do [ -s "$w/session.key" ] && break; sleep 0.1; done
+  # The second app joins before the pull begins: a join would cancel a stroke held past its wait.
+  "$KIJI_XVFB_RUN" -a -s "-screen 0 1600x1200x24" "$KIJI_STUDIO" --window 1000x700 --device none \
+    --join --name ben --key-file "$w/session.key" --quit-after 90 \
+    --export "$w/ben.glb" --screenshot "$w/ben.png" --save-peers "$w/ben.json" > "$w/ben.txt" 2>&1 &
+  ben=$!
+  for i in $(seq 600); do grep -q "in the shared session" "$w/ben.txt" && break; sleep 0.1; done
+  "$KIJI_BIN" peer --name puller --key-file "$w/session.key" --replay "$KIJI_REPLAY" --json --timeout 90 \
+    --out "$w/puller.glb" > "$w/puller.json" 2> "$w/puller.err" &
+  peer=$!
+  wait $ana
+  echo $? > "$w/ana.rc"
+  wait $ben
+  echo $? > "$w/ben.rc"
+  kill -TERM $peer 2>/dev/null
+  wait $peer
+'
+for who in ana ben; do
+  [ "$(cat "$work/two/$who.rc" 2>/dev/null)" = 0 ] || { fail "app $who exited $(cat "$work/two/$who.rc" 2>/dev/null)"; cat "$work/two/$who.txt"; }
+done
+python3 - "$work/two" "$here/../peers" "$here" <<'PY' || failures=$((failures + 1))
+import json, sys
+work = sys.argv[1]
+sys.path[:0] = sys.argv[2:4]
+from glb_positions import glb_positions
+from png_rgb import pixels_near
+
+ana, ben = (json.load(open(f"{work}/{who}.json")) for who in ("ana", "ben"))
+for name, app in (("ana", ana), ("ben", ben)):
+    rows = {r["name"]: r for r in app["peers"]}
+    print(f"{name}'s peers:", [(r["name"], r["role"], r["state"]) for r in app["peers"]], "step", app["step"])
+    others = {"ana", "ben", "puller"} - {name}
+    assert others <= set(rows), f"{name}'s app does not list {others - set(rows)}"
+    assert all(rows[o]["present"] and rows[o]["state"] == "agrees" for o in others), rows
+    assert rows[f"{name} (you)"]["role"] == ("sequencer" if name == "ana" else "peer"), rows
+assert ana["step"] == ben["step"] >= 480, f"the shared clock stopped at {ana['step']} / {ben['step']}"
+assert ana["state_hash"] == ben["state_hash"], "the two apps ended with different states"
+a, b = glb_positions(f"{work}/ana.glb"), glb_positions(f"{work}/ben.glb")
+assert a == b, "the garments the two apps exported differ"
+reach = max(p[0] for p in b)
+assert reach > 0.45, f"the pull did not reach the joined app's cloth: the corner reaches x = {reach:.3f} m"
+# The joined app draws the puller's pointer in the puller's colour.
+p = [p for p in ben["pointers"] if p["name"] == "puller"][0]
+near = pixels_near(f"{work}/ben.png", p["x"], p["y"], p["colour"])
+assert near >= 100, f"only {near} pixels of the puller's colour near its pointer in the joined app's picture"
+print(f"both apps list each other and the puller, agree at step {ana['step']}, the corner reaches "
+      f"x = {reach:.3f} m in both, and the joined app shows the puller's pointer ({near} pixels)")
 PY
 echo "failures: $failures"
 [ $failures -eq 0 ]

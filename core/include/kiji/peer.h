@@ -52,6 +52,10 @@ struct PeerOptions {
   double lease_hold_seconds = 1.5;  // how long a lease outlives its user's last event
   bool real_time = true;         // step at the session's frame rate; false: as fast as allowed
   std::uint64_t stop_step = 0;   // the shared clock stops here (0: never)
+  // Seconds on the caller's clock, for real time: a tick catching up then stops stepping once it
+  // has stepped for a frame's time, so that messages are heard and state sent between slow steps
+  // (a large garment). Unset: a tick steps as far as it may (deterministic tests drive the clock).
+  std::function<double()> clock;
   void validate() const;
 };
 

@@ -52,6 +52,9 @@ class PeerRunner {
   // Leaves and stops; the session is the users' own again (safe to call twice).
   void stop();
   bool running() const { return running_.load(); }
+  // Whether the peer has the shared session, without waiting for the session's lock (which a
+  // peer catching up on a large garment holds for a step at a time).
+  bool joined() const { return joined_.load(); }
   // Why the thread stopped by itself (empty while it runs or if it was stopped).
   std::string error() const;
   // Recorded operations taken from the play channel and proposed, and those dropped (not a record,
@@ -68,7 +71,7 @@ class PeerRunner {
   std::unique_ptr<Transport> transport_;
   std::unique_ptr<Peer> peer_;
   double loss_ = 0;
-  std::atomic<bool> stop_{false}, running_{false};
+  std::atomic<bool> stop_{false}, running_{false}, joined_{false};
   std::atomic<std::uint64_t> played_{0}, play_dropped_{0};
   mutable std::mutex error_mutex_;
   std::string error_, play_error_;

@@ -3,12 +3,15 @@
 // default body. Figures only: nothing here is an assertion.
 //   solver_bench                 the table
 //   solver_bench drape [n [print_every [self_collision [substeps]]]]
+//   solver_bench hash [n [steps]]   a landing's end state, hashed (compare KIJI_THREADS settings)
 #include "kiji/body.h"
 #include "kiji/pattern.h"
 #include "kiji/solver.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdint>
 #include <cstring>
 
 using namespace kiji;
@@ -61,14 +64,39 @@ int main(int argc, char** argv) {
       solver.step(g, 1.0 / 60);
       if (s % (argc > 3 ? std::atoi(argv[3]) : 30) == 0) {
         const ClothMeasures m = solver.measure(g);
-        std::printf("t=%.1f s  KE %.3g J  max pen %.2f mm  max strain %.3f  mean strain %.4f  contacts %zu / %zu\n",
+        double vmax = 0;
+        for (Vertex v : g.mesh().vertices()) vmax = std::max(vmax, g.velocity(v).norm());
+        std::printf("t=%.2f s  KE %.3g J  max pen %.2f mm  max strain %.3f  mean strain %.4f  contacts %zu / %zu  "
+                    "asleep %zu  fastest %.2f m/s  %.1f ms\n",
                     s / 60.0, m.kinetic_energy, 1e3 * m.max_penetration, m.max_strain, m.mean_strain,
-                    m.contacts, m.vertices);
+                    m.contacts, m.vertices, m.sleeping, vmax, solver.last_step().ms.total);
         std::fflush(stdout);
       }
     }
     std::printf("%.1f ms per step\n",
                 std::chrono::duration<double, std::milli>(Clock::now() - t0).count() / 180);
+    return 0;
+  }
+  if (argc > 1 && std::strcmp(argv[1], "hash") == 0) {  // solver_bench hash [n [steps]]
+    // The cloth's positions after landing on the body and itself, hashed: the same for any
+    // KIJI_THREADS (the solver's result does not depend on the thread count).
+    const int n = argc > 2 ? std::atoi(argv[2]) : 141, steps = argc > 3 ? std::atoi(argv[3]) : 40;
+    Garment g = cloth(n, body.bounds());
+    Solver solver{SolverParams{}};
+    solver.set_body(&body);
+    std::size_t pairs = 0;
+    for (int i = 0; i < steps; ++i) {
+      solver.step(g, 1.0 / 60);
+      pairs += solver.last_step().self_pairs;
+    }
+    std::uint64_t h = 1469598103934665603ull;  // FNV-1a over the positions' bytes
+    for (Vertex v : g.mesh().vertices()) {
+      const Vec3 x = g.position(v);
+      const auto* b = reinterpret_cast<const unsigned char*>(x.data());
+      for (std::size_t k = 0; k < sizeof(double) * 3; ++k) h = (h ^ b[k]) * 1099511628211ull;
+    }
+    std::printf("%d vertices, %d steps, %zu self-collision pairs: positions hash %016llx\n", n * n, steps, pairs,
+                static_cast<unsigned long long>(h));
     return 0;
   }
   if (argc > 2 && std::strcmp(argv[1], "cell") == 0) {  // solver_bench cell N xpbd|mass_spring body self

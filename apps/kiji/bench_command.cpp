@@ -27,6 +27,7 @@
 #include <malloc.h>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -136,7 +137,8 @@ const std::vector<std::string> kToolRows = {"pinch", "pinch_local", "pinch_landi
 std::vector<ToolRate> tool_rates(const Body& body, int vertices, int frames, std::shared_ptr<ToolRegistry> tools,
                                  const std::vector<std::string>& rows) {
   std::vector<ToolRate> out;
-  const Garment settled = settled_on(body, vertices, tools);
+  // Settled only when a row needs the garment at rest (the landing row does not).
+  std::optional<Garment> settled;
   for (const std::string& name : rows) {
     const bool local = name == "pinch_local", landing = name == "pinch_landing";
     const std::string tool = (local || landing) ? "pinch" : name;
@@ -152,7 +154,8 @@ std::vector<ToolRate> tool_rates(const Body& body, int vertices, int frames, std
       // The garment at rest, as it slept at the end of its settling (the garment carries where it
       // sleeps to a new session's solver: see Garment::sleep_record). Should a part of it be awake,
       // it is given up to 1 s to sleep (not timed).
-      s.add_garment(settled);
+      if (!settled) settled = settled_on(body, vertices, tools);
+      s.add_garment(*settled);
       for (int i = 0; i < 60 && !all_asleep(s); i += 10)
         for (int k = 0; k < 10; ++k) s.step();
     }
@@ -530,6 +533,8 @@ int bench_command(const std::vector<std::string>& argv) {
   for (const char* t : {"pinch", "tear", "cut", "sew", "paint"})
     if (!tools->has(t)) throw InputError(std::string("the '") + t + "' tool plugin was not found: build the plugins or set KIJI_PLUGIN_PATH");
 
+  say("Kiji's solvers on %d threads (KIJI_THREADS sets it), on a machine with %u\n", solver_threads(),
+      std::thread::hardware_concurrency());
   // 1. The paper's tables.
   say("1. the paper's tables 1-2: steps / frames a second while each tool is in use, on %s\n"
       "   (on the garment at rest on the body; pinch_local: the pinch simulating only the cloth within %.2f m of the\n"
@@ -743,7 +748,8 @@ int bench_command(const std::vector<std::string>& argv) {
   }
 
   if (json) {
-    Json out = {{"threads", std::thread::hardware_concurrency()},
+    Json out = {{"threads", solver_threads()},
+                {"hardware_threads", std::thread::hardware_concurrency()},
                 {"paper", paper_table()},
                 {"tool_rates", table},
                 {"versus_bullet", versus},

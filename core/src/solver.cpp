@@ -30,6 +30,8 @@ std::string solver_model_name(SolverModel model) {
   return model == SolverModel::MassSpring ? "mass_spring" : "xpbd";
 }
 
+int solver_threads() { return parallel::thread_count(); }
+
 namespace {
 template <typename T>
 void require(bool ok, const char* field, const T& value, const char* what) {

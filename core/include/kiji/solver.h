@@ -22,6 +22,9 @@ namespace kiji {
 enum class SolverModel { Xpbd, MassSpring };
 SolverModel parse_solver_model(const std::string& name);  // "xpbd" | "mass_spring"
 std::string solver_model_name(SolverModel model);
+// The threads the solvers' loops share (KIJI_THREADS, else the hardware's, at most 8), fixed for the
+// process at its first use: what a benchmark reports it ran with.
+int solver_threads();
 
 struct SolverParams {
   SolverModel model = SolverModel::Xpbd;

@@ -419,6 +419,37 @@ TEST(BodyImportErrors, APlyFoundByItsContentWhoseHeaderLineNeverEndsIsRefused) {
   }
 }
 
+TEST(BodyImportErrors, AnOffFileWhoseFacesAssimpWouldReadPastIsRefused) {
+  // Face lines of no corners make assimp 5.2's OFF reader count its faces below zero and read past
+  // its arrays (found by fuzz_body: a segmentation fault inside Importer::ReadFile).
+  const std::string bytes = "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1.8\n3 0 2 1\n3 0 1v 0 0 0\nv 1 0 0\n"
+                            "v 0 1 0\nv 0 0 1.8\nf 1 3 2\nf 1 2 4\nf 3\n3 1 2 3\n3 2 0 3\n";
+  for (const char* name : {"runs_on.off", "runs_on.dat"}) {
+    const std::string path = tmp_file(name, bytes);
+    const std::string msg = input_error([&] { Body::load(path); });
+    EXPECT_NE(msg.find(path), std::string::npos) << msg;
+    EXPECT_NE(msg.find("its OFF face 3 (line 9, 'v 1 0 0') has 0 corners"), std::string::npos) << msg;
+  }
+  const std::string far = tmp_file("far.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n");
+  EXPECT_NE(input_error([&] { Body::load(far); }).find("refers to vertex 3, but the file has 3"), std::string::npos);
+  // assimp would allocate 353,535,235,358 vertices (wrapped to 32 bits) before reading a line.
+  const std::string msg = input_error([&] { Body::load(models + "/invalid/OutOfMemory.off"); });
+  EXPECT_NE(msg.find("more lines than the file's"), std::string::npos) << msg;
+  const std::string wide = tmp_file("wide.off", "OFF\n3 1 0\n0 0 0" + std::string(5000, ' ') + "\n1 0 0\n0 1 0\n3 0 1 2\n");
+  EXPECT_NE(input_error([&] { Body::load(wide); }).find("its line 3 is 5005 characters long"), std::string::npos);
+}
+
+TEST(BodyImport, OffFilesLoad) {
+  const Body cube = Body::load(models + "/OFF/Cube.off");
+  EXPECT_EQ(cube.vertices().size(), 8u);
+  EXPECT_EQ(cube.triangles().size(), 12u);
+  // Wuson as OFF is the same body as Wuson as PLY.
+  const Body off = Body::load(models + "/OFF/Wuson.off");
+  const Body ply = Body::load(models + "/PLY/Wuson.ply");
+  EXPECT_EQ(off.vertices().size(), ply.vertices().size());
+  EXPECT_EQ(off.triangles().size(), ply.triangles().size());
+}
+
 TEST(BodyImportErrors, LinesOnlyAndPointsOnlyHaveNoTriangles) {
   for (const char* f : {"/OBJ/testline.obj", "/OBJ/testpoints.obj"}) {
     const std::string msg = input_error([&] { Body::load(models + f); });

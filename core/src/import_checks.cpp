@@ -15,6 +15,7 @@
 #include <fstream>
 #include <iterator>
 #include <string_view>
+#include <utility>
 
 namespace kiji::detail {
 
@@ -100,6 +101,129 @@ void check_gltf_json(const std::string& text, const std::string& what) {
   }
 }
 
+// assimp 5.2's OFF reader does not move on to the next face when it drops one of 0 or over 9
+// corners, but still counts it off the mesh's faces: enough of them wrap that count and it reads
+// past its arrays. It also allocates what the header declares before reading a line, and copies a
+// line into a 4 KiB buffer. The header and the faces are read here as that reader reads them.
+class OffReader {
+ public:
+  OffReader(std::string text, std::string what) : s_(std::move(text)), what_(std::move(what)) {
+    // assimp reads the file as a C string: it ends at the first NUL.
+    s_.resize(std::min(s_.size(), s_.find('\0')));
+  }
+
+  void check() {
+    next_token();
+    bool has_dimension = false;
+    if (starts("ST")) at_ += 2;
+    for (char flag : {'C', 'N', '4', 'n'})
+      if (at_ + 1 < s_.size() && s_[at_] == flag) {
+        has_dimension = flag == 'n';
+        ++at_;
+      }
+    if (starts("OFF")) at_ += 3;
+    next_token();
+    if (has_dimension) {
+      number();
+      next_token();
+    }
+    next_token();
+    const unsigned vertices = number();
+    next_token();
+    const unsigned faces = number();
+    next_token();
+    number();
+    next_token();
+    if (vertices == 0 || faces == 0) return;  // assimp refuses these with a reason of its own
+    // Every line but the last takes two bytes at least.
+    const std::size_t room = (s_.size() - std::min(at_, s_.size())) / 2 + 1;
+    if (std::size_t(vertices) + faces > room)
+      fail("its OFF header declares " + std::to_string(vertices) + " vertices and " + std::to_string(faces) +
+           " faces, more lines than the file's " + std::to_string(s_.size()) + " bytes can hold");
+    std::string_view line;
+    for (unsigned i = 0; i < vertices; ++i)
+      if (!next_line(line)) return;  // assimp says the count is wrong
+    for (unsigned i = 0; i < faces; ++i) {
+      if (!next_line(line)) return;
+      const std::string where = "its OFF face " + std::to_string(i + 1) + " (line " + std::to_string(current_line_) + ", '" +
+                                std::string(line.substr(0, 60)) + "')";
+      std::size_t c = 0;
+      const unsigned corners = number_in(line, c);
+      if (corners == 0 || corners > 9)
+        fail(where + " has " + std::to_string(corners) + " corners, and an OFF face here has 1 to 9");
+      for (unsigned k = 0; k < corners; ++k) {
+        const unsigned v = number_in(line, c);
+        if (v >= vertices)
+          fail(where + " refers to vertex " + std::to_string(v) + ", but the file has " + std::to_string(vertices) +
+               " (OFF counts from 0)");
+      }
+    }
+  }
+
+ private:
+  [[noreturn]] void fail(const std::string& why) const { throw InputError(what_ + ": " + why + "; repair the file"); }
+  static bool line_end(char c) { return c == '\r' || c == '\n' || c == '\0' || c == '\f'; }
+  char at(std::size_t i) const { return i < s_.size() ? s_[i] : '\0'; }
+  bool starts(const char* word) const { return s_.compare(std::min(at_, s_.size()), std::strlen(word), word) == 0; }
+
+  void skip_spaces_and_line_ends() {
+    while (at_ < s_.size() && (s_[at_] == ' ' || s_[at_] == '\t' || s_[at_] == '\r' || s_[at_] == '\n')) {
+      if (s_[at_] == '\n') ++line_number_;
+      ++at_;
+    }
+  }
+  void next_token() {
+    skip_spaces_and_line_ends();
+    while (at_ < s_.size() && (s_[at_] == '#' || s_[at_] == '\n' || s_[at_] == '\r')) {
+      while (!line_end(at(at_))) ++at_;
+      skip_spaces_and_line_ends();
+    }
+  }
+  // assimp's strtoul10: decimal digits into an unsigned int, wrapping as it does.
+  unsigned number() {
+    unsigned value = 0;
+    while (at(at_) >= '0' && at(at_) <= '9') value = value * 10 + unsigned(s_[at_++] - '0');
+    return value;
+  }
+  static unsigned number_in(std::string_view line, std::size_t& c) {
+    while (c < line.size() && (line[c] == ' ' || line[c] == '\t')) ++c;
+    unsigned value = 0;
+    while (c < line.size() && line[c] >= '0' && line[c] <= '9') value = value * 10 + unsigned(line[c++] - '0');
+    return value;
+  }
+  // assimp's GetNextLine: a line up to its end, then every line end after it (blank lines vanish).
+  bool next_line(std::string_view& line) {
+    if (at_ >= s_.size()) return false;
+    const std::size_t start = at_;
+    while (!line_end(at(at_))) ++at_;
+    line = std::string_view(s_).substr(start, at_ - start);
+    current_line_ = line_number_;
+    while (at_ < s_.size() && line_end(s_[at_])) {
+      if (s_[at_] == '\n') ++line_number_;
+      ++at_;
+    }
+    if (line.size() >= kLineBuffer)
+      fail("its line " + std::to_string(current_line_) + " is " + std::to_string(line.size()) +
+           " characters long, and assimp's OFF reader reads up to " + std::to_string(kLineBuffer - 1));
+    return true;
+  }
+
+  static constexpr std::size_t kLineBuffer = 4096;
+  std::string s_;
+  std::string what_;
+  std::size_t at_ = 0;
+  long long line_number_ = 1;
+  long long current_line_ = 1;
+};
+
+// assimp takes a file for OFF by "off" in its first three bytes, whatever its name.
+bool off_magic(std::string_view head) {
+  head = head.substr(0, 3);
+  std::string lower(head);
+  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return lower.find("off") != std::string::npos;
+}
+
 std::uint32_t le32(const char* p) {
   const auto* u = reinterpret_cast<const unsigned char*>(p);
   return u[0] | (u[1] << 8) | (u[2] << 16) | (std::uint32_t(u[3]) << 24);
@@ -130,18 +254,37 @@ void check_before_assimp(const std::string& path, const std::string& what) {
   in.read(head, sizeof head);
   const std::streamsize got = in.gcount();
   if (got >= 4 && std::memcmp(head, "glTF", 4) == 0) {
-    // Binary glTF: a 12-byte header, then the JSON chunk (its length, "JSON", the text). A file
-    // not laid out so is assimp's to refuse, as it does.
+    // Binary glTF: a 12-byte header, then the JSON chunk (its length, "JSON", the text), then the
+    // BIN chunk if the header's length leaves room for one. A file not laid out so is assimp's to
+    // refuse, as it does; assimp allocates and fills what a chunk declares before reading it, so a
+    // chunk longer than the file is refused here.
     std::error_code ec;
     const std::uintmax_t size = fs::file_size(path, ec);
-    const std::uint32_t length = got == 20 ? le32(head + 12) : 0;
-    if (got < 20 || std::memcmp(head + 16, "JSON", 4) != 0 || ec || length > size - 20) return;
+    if (got < 20 || std::memcmp(head + 16, "JSON", 4) != 0 || ec) return;
+    const std::uint32_t length = le32(head + 12);
+    auto too_long = [&](const char* chunk, std::uint64_t declared, std::uint64_t room) {
+      throw InputError(what + ": its glb " + chunk + " chunk declares " + std::to_string(declared) +
+                       " bytes, but the file has " + std::to_string(room) + " after its start; the file is cut or corrupt, export it again");
+    };
+    if (length > size - 20) too_long("JSON", length, size - 20);
     std::string text(length, '\0');
     in.read(text.data(), length);
+    const std::uint64_t bin = (20 + std::uint64_t(length) + 3) & ~std::uint64_t(3);
+    char chunk[8] = {};
+    if (bin < le32(head + 8) && bin + 8 <= size) {
+      in.seekg(static_cast<std::streamoff>(bin));
+      in.read(chunk, sizeof chunk);
+      if (in.gcount() == 8 && std::memcmp(chunk + 4, "BIN", 4) == 0 && le32(chunk) > size - bin - 8)
+        too_long("BIN", le32(chunk), size - bin - 8);
+    }
     check_gltf_json(text, what);
   } else if (ext == ".gltf") {
     in.seekg(0);
     check_gltf_json(std::string(std::istreambuf_iterator<char>(in), {}), what);
+  } else if (ext == ".off" || off_magic(std::string_view(head, static_cast<std::size_t>(got)))) {
+    in.clear();
+    in.seekg(0);
+    OffReader(std::string(std::istreambuf_iterator<char>(in), {}), what).check();
   } else if (ext == ".ply" || ply_magic(std::string_view(head, static_cast<std::size_t>(got)))) {
     // assimp takes a file for PLY by the word near its start, not only at it. The header is text and
     // short; one whose first 64 KiB hold no whole end_header line never ends it (assimp then reads on

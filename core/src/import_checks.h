@@ -9,8 +9,12 @@ namespace kiji::detail {
 // Throws InputError, starting with `what` ("cannot import garment 'x.glb'"), for: an OBJ face, line
 // or point naming a vertex, texture coordinate or normal the file lacks (assimp leaks the meshes it
 // built when it finds one); a glTF (.gltf, or binary by its magic) whose JSON is not JSON or whose
-// image names a MIME type glTF does not allow (assimp reads freed memory on one); a PLY whose header
-// never ends (assimp looks for its end for ever). Any other file is left to assimp.
+// image names a MIME type glTF does not allow (assimp reads freed memory on one), or a glb chunk
+// longer than the file (assimp allocates and fills it first); a PLY whose header
+// never ends (assimp looks for its end for ever); an OFF file whose header declares more lines than
+// it has, or whose face has 0 or over 9 corners or names a vertex it lacks, or whose line is over
+// 4 KiB (assimp allocates all the header declares first, reads past its arrays after such faces, and
+// copies a line into a 4 KiB buffer). Any other file is left to assimp.
 void check_before_assimp(const std::string& path, const std::string& what);
 
 }  // namespace kiji::detail

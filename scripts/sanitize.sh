@@ -52,9 +52,11 @@ for run in "${runs[@]}"; do
       fi
       echo "kiji sanitize: asan build $(elapsed "$start")"
       if [ "$run" = asan ]; then
-        # A test that leaks is reported at its exit; a report anywhere fails the test.
+        # A test that leaks is reported at its exit; a report anywhere fails the test. No
+        # strict_string_checks: Qt's keyboard library (xkbcommon) passes strndup a name with no NUL
+        # within its bound, which strndup allows and that check reports.
         t=$(date +%s)
-        ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1:detect_stack_use_after_return=1 \
+        ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:detect_stack_use_after_return=1 \
           UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 LSAN_OPTIONS=suppressions=$PWD/tests/sanitizers/lsan.supp \
           ctest --test-dir build-asan --output-on-failure -j "$jobs" || status=1
         echo "kiji sanitize: asan ctest $(elapsed "$t")"

@@ -379,6 +379,22 @@ TEST(GarmentFileErrors, AGlbChunkLongerThanTheFileIsRefusedBeforeAssimpAllocates
   EXPECT_GT(import_garment(path).mesh().number_of_faces(), 0u);
 }
 
+TEST(GarmentFileErrors, AGlbNeitherGltfImporterRecognisesIsNotTriedAsEveryOtherFormat) {
+  // Neither glTF importer takes these bytes; assimp then tried every format on them, and its
+  // OpenGEX reader, taken by the word IndexArray, read past its buffer (found by fuzz_garment_glb).
+  const std::string bytes("glTF\x02glTindexarray<\0\0\0xet\":&t\"versio+n\":\"l{\"vegene", 50);
+  const std::string path = tmp_path("not_gltf.glb");
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+  for (bool body : {false, true}) {
+    const std::string msg = input_error([&] { body ? (void)Body::load(path) : (void)import_garment(path); });
+    EXPECT_NE(msg.find(path + "': assimp cannot read it as a .glb file (its content is not laid out as one)"), std::string::npos) << msg;
+  }
+  // Nor is any other name tried as OpenGEX.
+  const std::string other = tmp_path("not_gltf.dat");
+  std::ofstream(other, std::ios::binary | std::ios::trunc) << bytes;
+  EXPECT_NE(input_error([&] { Body::load(other); }).find("No suitable reader"), std::string::npos);
+}
+
 TEST(GarmentFileErrors, ATextureBesideAnObjThatIsNotARegularFileIsRefusedWithoutBlocking) {
   Garment g = seamed_garment();
   g.texture() = test_texture();

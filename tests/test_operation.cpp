@@ -78,8 +78,9 @@ void expect_same(const Garment& a, const Garment& b) {
     std::map<std::pair<std::uint32_t, std::uint32_t>, std::pair<double, double>> out;
     for (Edge e : g.mesh().edges()) {
       const Halfedge h = g.mesh().halfedge(e);
-      auto key = std::minmax(g.mesh().source(h).idx(), g.mesh().target(h).idx());
-      out[{key.first, key.second}] = {g.rest_length(e), g.tear_threshold(e)};
+      // std::minmax returns references: to named values, not to temporaries.
+      const std::uint32_t a = g.mesh().source(h).idx(), b = g.mesh().target(h).idx();
+      out[{std::min(a, b), std::max(a, b)}] = {g.rest_length(e), g.tear_threshold(e)};
     }
     return out;
   };
@@ -194,7 +195,8 @@ TEST(Operation, EveryKindComesBackExactly) {
     EXPECT_STREQ(operation_kind(back.data), operation_kind(op.data));
     EXPECT_EQ(encode_operation(back), bytes) << operation_kind(op.data);
   }
-  const auto& t = std::get<op::ToolInput>(decode_operation(encode_operation(one_of_each()[0])).data);
+  const Operation decoded = decode_operation(encode_operation(one_of_each()[0]));
+  const auto& t = std::get<op::ToolInput>(decoded.data);
   EXPECT_EQ(t.event.time, 1.0 / 3.0);
   EXPECT_EQ(t.event.buttons, 3u);
   EXPECT_EQ(std::get<long long>(t.params.at("count")), 3);

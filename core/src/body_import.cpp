@@ -358,6 +358,7 @@ Body Body::load(const std::string& path, const BodyImportOptions& options) {
   detail::check_before_assimp(path, "cannot load body '" + path + "'");
 
   Assimp::Importer importer;
+  detail::prepare_importer(importer, path, "cannot load body '" + path + "'");
   // Without normals, uvs and colours, Collada's seam-split corners become identical and weld.
   importer.SetPropertyInteger(
       AI_CONFIG_PP_RVC_FLAGS,

@@ -3,6 +3,9 @@
 
 #include "kiji/error.h"
 
+#include <assimp/BaseImporter.h>
+#include <assimp/Importer.hpp>
+
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -14,8 +17,10 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <set>
 #include <string_view>
 #include <utility>
+#include <vector>
 
 namespace kiji::detail {
 
@@ -108,7 +113,7 @@ void check_gltf_json(const std::string& text, const std::string& what) {
 class OffReader {
  public:
   OffReader(std::string text, std::string what) : s_(std::move(text)), what_(std::move(what)) {
-    // assimp reads the file as a C string: it ends at the first NUL.
+    // assimp reads the lines as C strings: they end at the first NUL.
     s_.resize(std::min(s_.size(), s_.find('\0')));
   }
 
@@ -140,11 +145,16 @@ class OffReader {
     if (std::size_t(vertices) + faces > room)
       fail("its OFF header declares " + std::to_string(vertices) + " vertices and " + std::to_string(faces) +
            " faces, more lines than the file's " + std::to_string(s_.size()) + " bytes can hold");
+    // assimp leaves the faces it finds no line for empty, and its triangulation then aborts.
     std::string_view line;
     for (unsigned i = 0; i < vertices; ++i)
-      if (!next_line(line)) return;  // assimp says the count is wrong
+      if (!next_line(line))
+        fail("its OFF header declares " + std::to_string(vertices) + " vertices, but the file has " + std::to_string(i) +
+             " vertex lines and no faces");
     for (unsigned i = 0; i < faces; ++i) {
-      if (!next_line(line)) return;
+      if (!next_line(line))
+        fail("its OFF header declares " + std::to_string(faces) + " faces, but the file has " + std::to_string(i) +
+             " face lines");
       const std::string where = "its OFF face " + std::to_string(i + 1) + " (line " + std::to_string(current_line_) + ", '" +
                                 std::string(line.substr(0, 60)) + "')";
       std::size_t c = 0;
@@ -301,6 +311,36 @@ void check_before_assimp(const std::string& path, const std::string& what) {
     if (!line_ends)
       throw InputError(what + ": its PLY header has no end_header line in its first 64 KiB; export the file again");
   }
+}
+
+void prepare_importer(Assimp::Importer& importer, const std::string& path, const std::string& what) {
+  if (Assimp::BaseImporter* ogex = importer.GetImporter("ogex")) {
+    // Unregistered, the importer is no longer the Importer's to delete.
+    if (importer.UnregisterLoader(ogex) == aiReturn_SUCCESS) delete ogex;
+  }
+  // As assimp picks an importer: by the whole end of the name, case aside.
+  std::string lower = path;
+  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  std::vector<Assimp::BaseImporter*> candidates;
+  std::string matched;
+  for (std::size_t i = 0; i < importer.GetImporterCount(); ++i) {
+    Assimp::BaseImporter* candidate = importer.GetImporter(i);
+    std::set<std::string> extensions;
+    candidate->GetExtensionList(extensions);
+    for (const std::string& e : extensions) {
+      const std::string end = "." + e;
+      if (end.size() <= lower.size() && lower.compare(lower.size() - end.size(), end.size(), end) == 0) {
+        candidates.push_back(candidate);
+        matched = end;
+        break;
+      }
+    }
+  }
+  if (candidates.size() < 2) return;
+  for (Assimp::BaseImporter* candidate : candidates)
+    if (candidate->CanRead(path, importer.GetIOHandler(), true)) return;
+  throw InputError(what + ": assimp cannot read it as a " + matched + " file (its content is not laid out as one): " +
+                   "export it again, or name it after its real format");
 }
 
 }  // namespace kiji::detail

@@ -4,6 +4,10 @@
 
 #include <string>
 
+namespace Assimp {
+class Importer;
+}
+
 namespace kiji::detail {
 
 // Throws InputError, starting with `what` ("cannot import garment 'x.glb'"), for: an OBJ face, line
@@ -16,5 +20,11 @@ namespace kiji::detail {
 // 4 KiB (assimp allocates all the header declares first, reads past its arrays after such faces, and
 // copies a line into a 4 KiB buffer). Any other file is left to assimp.
 void check_before_assimp(const std::string& path, const std::string& what);
+
+// Readies an importer for `path`: OpenGEX is taken out of it (assimp 5.2's OpenDDL parser reads
+// past the end of a broken file, and any file of an unknown extension may be tried as OpenGEX), and
+// a file whose extension several importers share (.glb, .gltf, .xml) and none of them recognises is
+// refused here, where assimp would try every format on it. Throws InputError starting with `what`.
+void prepare_importer(Assimp::Importer& importer, const std::string& path, const std::string& what);
 
 }  // namespace kiji::detail

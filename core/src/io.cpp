@@ -290,6 +290,7 @@ Garment import_garment(const std::string& path, const Material& material) {
   detail::check_before_assimp(path, "cannot import garment '" + path + "'");
 
   Assimp::Importer importer;
+  detail::prepare_importer(importer, path, "cannot import garment '" + path + "'");
   const aiScene* scene = nullptr;
   try {
     scene = importer.ReadFile(path, aiProcess_Triangulate | aiProcess_PreTransformVertices);

@@ -30,7 +30,7 @@ GarmentSnapshot::GarmentSnapshot(const std::vector<Garment>& garments, const Gar
     if (previous && i < previous->textures_.size()) {
       const auto& p = previous->textures_[i];
       if (p && p->width == t.width && p->height == t.height && p->rgba.size() == t.rgba.size() &&
-          std::memcmp(p->rgba.data(), t.rgba.data(), t.rgba.size()) == 0)
+          (t.rgba.empty() || std::memcmp(p->rgba.data(), t.rgba.data(), t.rgba.size()) == 0))
         shared = p;
     }
     if (!shared) shared = std::make_shared<const Texture>(t);

@@ -44,8 +44,21 @@ double seconds_since(Clock::time_point t) { return std::chrono::duration<double>
 // A figure that is not finite (no steps timed) is written as null.
 using Json = nlohmann::ordered_json;
 
-// Bytes in use on the heap (glibc's count): what a garment and its solver take.
+// Bytes in use on the heap: what a garment and its solver take. glibc's count, or the sanitizer's
+// allocator's under AddressSanitizer (whose mallinfo2 says nothing).
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define KIJI_HEAP_FROM_SANITIZER 1
+#endif
+#endif
+#if defined(__SANITIZE_ADDRESS__) || defined(KIJI_HEAP_FROM_SANITIZER)
+}  // namespace
+extern "C" std::size_t __sanitizer_get_current_allocated_bytes();  // the sanitizers' allocator interface
+namespace {
+double heap_bytes() { return static_cast<double>(__sanitizer_get_current_allocated_bytes()); }
+#else
 double heap_bytes() { return static_cast<double>(mallinfo2().uordblks); }
+#endif
 
 // A square-ish rectangle of about `vertices` vertices, 1 m wide.
 Garment cloth_of(int vertices, const Material& m = {}) {

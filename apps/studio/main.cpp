@@ -162,14 +162,15 @@ int main(int argc, char** argv) {
   // A scripted run whose scene could not be set up stops here: what it would write would be wrong.
   if (options.quit_after && run.failures) return 1;
   if (options.benchmark) return run_benchmark(app, studio, window, options);
+  // Out here, not in the block below: the timers' lambdas call it until app.exec() returns.
+  bool finished = false;
+  auto finish = [&] {
+    if (finished) return;
+    finished = true;
+    run.write_outputs();
+    app.exit(run.failures ? 1 : 0);
+  };
   if (options.quit_after) {
-    bool finished = false;
-    auto finish = [&] {
-      if (finished) return;
-      finished = true;
-      run.write_outputs();
-      app.exit(run.failures ? 1 : 0);
-    };
     QTimer::singleShot(int(*options.quit_after * 1000), &app, [&] {
       if (options.host && options.seconds > 0 && !run.shared_run_done())
         std::fprintf(stderr, "kiji-studio: the shared clock had not stopped with every peer agreeing after --quit-after\n");

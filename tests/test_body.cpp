@@ -458,6 +458,19 @@ TEST(BodyImport, OffFilesLoad) {
   EXPECT_EQ(off.triangles().size(), ply.triangles().size());
 }
 
+TEST(BodyImportErrors, AFileWhoseImporterClaimsPolygonsItDidNotKeepIsReadNotAborted) {
+  // assimp's PLY importer marks this mesh as having polygons, keeps none, and assimp's own
+  // triangulation then aborts the process on an assertion (found by fuzz_body). Kiji sets each
+  // mesh's kinds of face from its faces before triangulating.
+  const std::string path = tmp_file("claims_polygons.ply", "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 4\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1.8\n3 0 2 1\n 0 0\n0 1 0\n0 0 1.8\n3 0 2 1\n3 0 1 3\n3 1 &23 0 1 3\n3 1 2 3\n3 2ent face 4\nproperty list uchar i 0 3\n");
+  try {
+    const Body b = Body::load(path);
+    EXPECT_GT(b.triangles().size(), 0u);
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+  }
+}
+
 TEST(BodyImportErrors, LinesOnlyAndPointsOnlyHaveNoTriangles) {
   for (const char* f : {"/OBJ/testline.obj", "/OBJ/testpoints.obj"}) {
     const std::string msg = input_error([&] { Body::load(models + f); });

@@ -367,7 +367,8 @@ Body Body::load(const std::string& path, const BodyImportOptions& options) {
           aiComponent_TEXTURES | aiComponent_LIGHTS | aiComponent_CAMERAS | aiComponent_MATERIALS);
   const aiScene* scene = nullptr;
   try {
-    scene = importer.ReadFile(path, aiProcess_RemoveComponent | aiProcess_Triangulate | aiProcess_SortByPType);
+    // Post-processed apart, below, after Kiji has checked the faces.
+    scene = importer.ReadFile(path, 0);
   } catch (const std::exception& e) {
     fail(path, std::string("assimp failed while reading it (") + e.what() + "): check the file is a mesh file");
   }
@@ -377,6 +378,9 @@ Body Body::load(const std::string& path, const BodyImportOptions& options) {
     fail(path, "assimp cannot read it (" + (err.empty() ? std::string("no reason given") : err) +
                    "): use a format assimp reads (OBJ, Collada, FBX, glTF, PLY, STL, ...) or export it again");
   }
+  detail::post_process(importer, aiProcess_RemoveComponent | aiProcess_Triangulate | aiProcess_SortByPType,
+                       "cannot load body '" + path + "'");
+  scene = importer.GetScene();
 
   BodyImportReport report;
   report.format = meta_string(scene->mMetaData, "SourceAsset_Format");

@@ -5,6 +5,7 @@
 
 #include <assimp/BaseImporter.h>
 #include <assimp/Importer.hpp>
+#include <assimp/scene.h>
 
 #include <nlohmann/json.hpp>
 
@@ -341,6 +342,38 @@ void prepare_importer(Assimp::Importer& importer, const std::string& path, const
     if (candidate->CanRead(path, importer.GetIOHandler(), true)) return;
   throw InputError(what + ": assimp cannot read it as a " + matched + " file (its content is not laid out as one): " +
                    "export it again, or name it after its real format");
+}
+
+void post_process(Assimp::Importer& importer, unsigned post_processing, const std::string& what) {
+  // The importer's own scene, changed in place as its post-processing steps change it.
+  aiScene* scene = const_cast<aiScene*>(importer.GetScene());
+  if (!scene) throw InputError(what + ": assimp gave no scene");
+  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
+    aiMesh* mesh = scene->mMeshes[m];
+    if (!mesh) throw InputError(what + ": its mesh " + std::to_string(m) + " is missing; export it again");
+    unsigned types = 0;
+    for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
+      const aiFace& face = mesh->mFaces[f];
+      auto fail = [&](const std::string& why) {
+        throw InputError(what + ": its mesh " + std::to_string(m) + " ('" + mesh->mName.C_Str() + "') has a face (" +
+                         std::to_string(f) + ") " + why + "; repair the file");
+      };
+      if (face.mNumIndices == 0 || !face.mIndices) fail("of no corners");
+      for (unsigned k = 0; k < face.mNumIndices; ++k)
+        if (face.mIndices[k] >= mesh->mNumVertices)
+          fail("naming vertex " + std::to_string(face.mIndices[k]) + " of " + std::to_string(mesh->mNumVertices));
+      types |= face.mNumIndices == 1   ? aiPrimitiveType_POINT
+               : face.mNumIndices == 2 ? aiPrimitiveType_LINE
+               : face.mNumIndices == 3 ? aiPrimitiveType_TRIANGLE
+                                       : aiPrimitiveType_POLYGON;
+    }
+    mesh->mPrimitiveTypes = types;
+  }
+  if (!importer.ApplyPostProcessing(post_processing)) {
+    std::string err = importer.GetErrorString();
+    throw InputError(what + ": assimp could not process it (" + (err.empty() ? std::string("no reason given") : err) +
+                     "); export it again");
+  }
 }
 
 }  // namespace kiji::detail

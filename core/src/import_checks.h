@@ -27,4 +27,10 @@ void check_before_assimp(const std::string& path, const std::string& what);
 // refused here, where assimp would try every format on it. Throws InputError starting with `what`.
 void prepare_importer(Assimp::Importer& importer, const std::string& path, const std::string& what);
 
+// After importer.ReadFile(path, 0) gave a scene: refuses a face of no corners or one naming a vertex
+// its mesh lacks, sets each mesh's primitive types from its faces (an importer can claim polygons it
+// did not keep, and assimp's triangulation then aborts the process), and applies `post_processing`.
+// Throws InputError starting with `what`.
+void post_process(Assimp::Importer& importer, unsigned post_processing, const std::string& what);
+
 }  // namespace kiji::detail

@@ -293,13 +293,17 @@ Garment import_garment(const std::string& path, const Material& material) {
   detail::prepare_importer(importer, path, "cannot import garment '" + path + "'");
   const aiScene* scene = nullptr;
   try {
-    scene = importer.ReadFile(path, aiProcess_Triangulate | aiProcess_PreTransformVertices);
+    // Post-processed apart, below, after Kiji has checked the faces.
+    scene = importer.ReadFile(path, 0);
   } catch (const std::exception& e) {
     throw InputError("cannot import garment '" + path + "': assimp failed (" + e.what() + ")");
   }
   if (!scene)
     throw InputError("cannot import garment '" + path + "': assimp cannot read it (" +
                      importer.GetErrorString() + "); export the garment again");
+  detail::post_process(importer, aiProcess_Triangulate | aiProcess_PreTransformVertices,
+                       "cannot import garment '" + path + "'");
+  scene = importer.GetScene();
 
   // Weld corners that share a position into one vertex; the uv stays with the corner.
   struct Corner {

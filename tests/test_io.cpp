@@ -395,6 +395,24 @@ TEST(GarmentFileErrors, AGlbNeitherGltfImporterRecognisesIsNotTriedAsEveryOtherF
   EXPECT_NE(input_error([&] { Body::load(other); }).find("No suitable reader"), std::string::npos);
 }
 
+TEST(GarmentFileErrors, AGlbPrimitiveWithoutPositionsIsRefused) {
+  // A line-loop primitive with indices and no POSITION made assimp 5.2 dereference a null array
+  // (found by fuzz_garment_glb). The attribute's name is cut to keep the JSON chunk's length.
+  const std::string path = tmp_path("no_positions.glb");
+  export_garment(seamed_garment(), path);
+  std::string bytes = slurp(path);
+  const std::size_t at = bytes.find("\"attributes\"");
+  ASSERT_NE(at, std::string::npos);
+  bytes.replace(at, 12, "\"attrib_tes\"");
+  const std::size_t mode = bytes.find("\"mode\":4");
+  if (mode != std::string::npos) bytes[mode + 7] = '2';
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+  for (bool body : {false, true}) {
+    const std::string msg = input_error([&] { body ? (void)Body::load(path) : (void)import_garment(path); });
+    EXPECT_NE(msg.find("its mesh 0's primitive 0 has no POSITION attribute"), std::string::npos) << msg;
+  }
+}
+
 TEST(GarmentFileErrors, ATextureBesideAnObjThatIsNotARegularFileIsRefusedWithoutBlocking) {
   Garment g = seamed_garment();
   g.texture() = test_texture();

@@ -95,7 +95,23 @@ void check_obj_indices(const std::string& path, const std::string& what) {
 void check_gltf_json(const std::string& text, const std::string& what) {
   const nlohmann::json doc = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (doc.is_discarded()) throw InputError(what + ": its glTF JSON is not valid JSON; export the file again");
-  if (!doc.is_object() || !doc.contains("images")) return;
+  if (!doc.is_object()) return;
+  // assimp 5.2 dereferences a null array on a line primitive with indices but no positions.
+  if (doc.contains("meshes") && doc["meshes"].is_array()) {
+    const nlohmann::json& meshes = doc["meshes"];
+    for (std::size_t i = 0; i < meshes.size(); ++i) {
+      if (!meshes[i].is_object() || !meshes[i].contains("primitives") || !meshes[i]["primitives"].is_array()) continue;
+      const nlohmann::json& primitives = meshes[i]["primitives"];
+      for (std::size_t j = 0; j < primitives.size(); ++j) {
+        const nlohmann::json& p = primitives[j];
+        if (!p.is_object() || !p.contains("attributes") || !p["attributes"].is_object() ||
+            !p["attributes"].contains("POSITION"))
+          throw InputError(what + ": its mesh " + std::to_string(i) + "'s primitive " + std::to_string(j) +
+                           " has no POSITION attribute, so no vertices; export the file again");
+      }
+    }
+  }
+  if (!doc.contains("images")) return;
   const nlohmann::json& images = doc["images"];
   if (!images.is_array()) throw InputError(what + ": its glTF 'images' is not a list; export the file again");
   for (std::size_t i = 0; i < images.size(); ++i) {

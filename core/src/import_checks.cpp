@@ -18,6 +18,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <set>
 #include <string_view>
 #include <utility>
@@ -251,6 +252,56 @@ bool off_magic(std::string_view head) {
   return lower.find("off") != std::string::npos;
 }
 
+// assimp 5.2 follows an FBX model's parents without looking for a loop: a model connected to
+// itself, or two to each other, recurse until the stack overflows. The text form's connections
+// ('C: "OO",child,parent') are read here; the binary form is left to assimp.
+void check_fbx_text_connections(const std::string& path, const std::string& what) {
+  std::ifstream in(path, std::ios::binary);
+  std::map<long long, std::vector<long long>> parents;
+  std::string line;
+  while (std::getline(in, line)) {
+    std::size_t at = line.find_first_not_of(" \t");
+    if (at == std::string::npos || line.compare(at, 2, "C:") != 0) continue;
+    const std::size_t oo = line.find("\"OO\"", at);
+    if (oo == std::string::npos) continue;
+    const char* c = line.c_str() + oo + 4;
+    long long ids[2];
+    bool ok = true;
+    for (long long& id : ids) {
+      while (*c == ' ' || *c == '\t' || *c == ',') ++c;
+      char* after = nullptr;
+      id = std::strtoll(c, &after, 10);
+      ok = ok && after != c;
+      c = after;
+    }
+    if (ok) parents[ids[0]].push_back(ids[1]);
+  }
+  // Depth-first along parents: an object met again on its own path is its own ancestor.
+  std::map<long long, int> state;  // 1: on the path, 2: done
+  for (const auto& [start, unused] : parents) {
+    if (state[start]) continue;
+    std::vector<std::pair<long long, std::size_t>> stack{{start, 0}};
+    state[start] = 1;
+    while (!stack.empty()) {
+      auto& [id, next] = stack.back();
+      const auto found = parents.find(id);
+      if (found == parents.end() || next == found->second.size()) {
+        state[id] = 2;
+        stack.pop_back();
+        continue;
+      }
+      const long long parent = found->second[next++];
+      if (state[parent] == 1)
+        throw InputError(what + ": its FBX connections make object " + std::to_string(parent) +
+                         " its own ancestor; export the file again");
+      if (state[parent] == 0) {
+        state[parent] = 1;
+        stack.push_back({parent, 0});
+      }
+    }
+  }
+}
+
 std::uint32_t le32(const char* p) {
   const auto* u = reinterpret_cast<const unsigned char*>(p);
   return u[0] | (u[1] << 8) | (u[2] << 16) | (std::uint32_t(u[3]) << 24);
@@ -308,6 +359,8 @@ void check_before_assimp(const std::string& path, const std::string& what) {
   } else if (ext == ".gltf") {
     in.seekg(0);
     check_gltf_json(std::string(std::istreambuf_iterator<char>(in), {}), what);
+  } else if (ext == ".fbx" || std::string_view(head, static_cast<std::size_t>(got)).find("; FBX") != std::string_view::npos) {
+    if (std::string_view(head, static_cast<std::size_t>(got)).rfind("Kaydara", 0) != 0) check_fbx_text_connections(path, what);
   } else if (ext == ".off" || off_magic(std::string_view(head, static_cast<std::size_t>(got)))) {
     in.clear();
     in.seekg(0);

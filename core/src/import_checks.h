@@ -18,7 +18,8 @@ namespace kiji::detail {
 // never ends (assimp looks for its end for ever); an OFF file whose header declares more lines than
 // it has, or whose face has 0 or over 9 corners or names a vertex it lacks, or whose line is over
 // 4 KiB (assimp allocates all the header declares first, reads past its arrays after such faces, and
-// copies a line into a 4 KiB buffer). Any other file is left to assimp.
+// copies a line into a 4 KiB buffer); a text FBX whose connections make a model its own ancestor
+// (assimp recurses until the stack overflows). Any other file is left to assimp.
 void check_before_assimp(const std::string& path, const std::string& what);
 
 // Readies an importer for `path`: OpenGEX is taken out of it (assimp 5.2's OpenDDL parser reads

@@ -473,41 +473,10 @@ TEST(BodyImportErrors, AFileWhoseImporterClaimsPolygonsItDidNotKeepIsReadNotAbor
 
 TEST(BodyImportErrors, AnFbxModelThatIsItsOwnAncestorIsRefused) {
   // assimp 5.2 follows a model's parents without looking for a loop and overflows the stack
-  // (found by fuzz_body). The seed tetrahedron, its model connected to itself, then to a second
+  // (found by fuzz_body). The test tetrahedron, its model connected to itself, then to a second
   // model that is its parent and its child.
-  const std::string head = R"(; FBX 7.4.0 project file
-FBXHeaderExtension:  {
-	FBXHeaderVersion: 1003
-	FBXVersion: 7400
-	Creator: "Kiji test"
-}
-GlobalSettings:  {
-	Version: 1000
-	Properties70:  {
-		P: "UpAxis", "int", "Integer", "",2
-		P: "UpAxisSign", "int", "Integer", "",1
-		P: "FrontAxis", "int", "Integer", "",1
-		P: "FrontAxisSign", "int", "Integer", "",-1
-		P: "CoordAxis", "int", "Integer", "",0
-		P: "CoordAxisSign", "int", "Integer", "",1
-		P: "UnitScaleFactor", "double", "Number", "",2.54
-	}
-}
-Objects:  {
-	Geometry: 1000, "Geometry::tet", "Mesh" {
-		Vertices: *12 {
-			a: 0,0,0,10,0,0,0,10,0,0,0,50
-		}
-		PolygonVertexIndex: *12 {
-			a: 0,2,-2,0,1,-4,1,2,-4,2,0,-4
-		}
-		GeometryVersion: 124
-	}
-	Model: 2000, "Model::tet", "Mesh" {
-		Version: 232
-	}
-}
-)";
+  const std::string fbx = kZupInchFbx;
+  const std::string head = fbx.substr(0, fbx.find("Connections:"));
   for (const auto& [name, connections] :
        {std::pair{"self.fbx", "Connections:  {\n\tC: \"OO\",2000,0\n\tC: \"OO\",2000,2000\n}\n"},
         std::pair{"pair.fbx", "Connections:  {\n\tC: \"OO\",2000,3000\n\tC: \"OO\",3000,2000\n}\n"}}) {
@@ -517,8 +486,7 @@ Objects:  {
     EXPECT_NE(msg.find("its own ancestor"), std::string::npos) << msg;
   }
   // Connected as it should be, it loads.
-  const std::string good = tmp_file("tet.fbx", head + "Connections:  {\n\tC: \"OO\",1000,2000\n\tC: \"OO\",2000,0\n}\n");
-  EXPECT_EQ(Body::load(good).triangles().size(), 4u);
+  EXPECT_EQ(Body::load(tmp_file("tet.fbx", fbx)).triangles().size(), 4u);
 }
 
 TEST(BodyImportErrors, LinesOnlyAndPointsOnlyHaveNoTriangles) {

@@ -355,8 +355,6 @@ std::string Body::default_path() { return "/usr/share/assimp/models/Collada/huma
 Body Body::load(const std::string& path, const BodyImportOptions& options) {
   check_options(path, options);
   check_file(path);
-  detail::check_before_assimp(path, "cannot load body '" + path + "'");
-
   Assimp::Importer importer;
   detail::prepare_importer(importer, path, "cannot load body '" + path + "'");
   // Without normals, uvs and colours, Collada's seam-split corners become identical and weld.

@@ -1,4 +1,4 @@
-// Checks made on a model file before assimp reads it: see import_checks.h.
+// Checks made on a model file around assimp's reading of it: see import_checks.h.
 #include "import_checks.h"
 
 #include "kiji/error.h"
@@ -30,11 +30,12 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string lower_extension(const std::string& path) {
-  std::string ext = fs::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return ext;
+std::string lowercase(std::string text) {
+  std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return text;
 }
+
+std::string lower_extension(const std::string& path) { return lowercase(fs::path(path).extension().string()); }
 
 // assimp checks an OBJ face's indices only after it has built the meshes, and leaks them when it
 // then refuses the file; the indices are checked here first, naming the line that is wrong.
@@ -245,12 +246,7 @@ class OffReader {
 };
 
 // assimp takes a file for OFF by "off" in its first three bytes, whatever its name.
-bool off_magic(std::string_view head) {
-  head = head.substr(0, 3);
-  std::string lower(head);
-  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return lower.find("off") != std::string::npos;
-}
+bool off_magic(std::string_view head) { return lowercase(std::string(head.substr(0, 3))).find("off") != std::string::npos; }
 
 // assimp 5.2 follows an FBX model's parents without looking for a loop: a model connected to
 // itself, or two to each other, recurse until the stack overflows. The text form's connections
@@ -319,8 +315,7 @@ bool ply_magic(std::string_view head) {
   return false;
 }
 
-}  // namespace
-
+// What assimp (5.2) would crash on, hang on or leak on, refused first: see prepare_importer.
 void check_before_assimp(const std::string& path, const std::string& what) {
   const std::string ext = lower_extension(path);
   if (ext == ".obj") {
@@ -383,14 +378,16 @@ void check_before_assimp(const std::string& path, const std::string& what) {
   }
 }
 
+}  // namespace
+
 void prepare_importer(Assimp::Importer& importer, const std::string& path, const std::string& what) {
+  check_before_assimp(path, what);
   if (Assimp::BaseImporter* ogex = importer.GetImporter("ogex")) {
     // Unregistered, the importer is no longer the Importer's to delete.
     if (importer.UnregisterLoader(ogex) == aiReturn_SUCCESS) delete ogex;
   }
   // As assimp picks an importer: by the whole end of the name, case aside.
-  std::string lower = path;
-  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  const std::string lower = lowercase(path);
   std::vector<Assimp::BaseImporter*> candidates;
   std::string matched;
   for (std::size_t i = 0; i < importer.GetImporterCount(); ++i) {

@@ -1,5 +1,5 @@
-// Checks made on a model file before assimp reads it, for what assimp (5.2) would crash on, hang on
-// or leak on; garment and body import share them. Private to libkiji.
+// Checks made on a model file around assimp's reading of it, for what assimp (5.2) would crash on,
+// hang on or leak on; garment and body import share them. Private to libkiji.
 #pragma once
 
 #include <string>
@@ -10,22 +10,21 @@ class Importer;
 
 namespace kiji::detail {
 
-// Throws InputError, starting with `what` ("cannot import garment 'x.glb'"), for: an OBJ face, line
-// or point naming a vertex, texture coordinate or normal the file lacks (assimp leaks the meshes it
-// built when it finds one); a glTF (.gltf, or binary by its magic) whose JSON is not JSON or whose
-// image names a MIME type glTF does not allow (assimp reads freed memory on one), or a glb chunk
-// longer than the file (assimp allocates and fills it first); a PLY whose header
-// never ends (assimp looks for its end for ever); an OFF file whose header declares more lines than
-// it has, or whose face has 0 or over 9 corners or names a vertex it lacks, or whose line is over
-// 4 KiB (assimp allocates all the header declares first, reads past its arrays after such faces, and
-// copies a line into a 4 KiB buffer); a text FBX whose connections make a model its own ancestor
-// (assimp recurses until the stack overflows). Any other file is left to assimp.
-void check_before_assimp(const std::string& path, const std::string& what);
-
-// Readies an importer for `path`: OpenGEX is taken out of it (assimp 5.2's OpenDDL parser reads
-// past the end of a broken file, and any file of an unknown extension may be tried as OpenGEX), and
-// a file whose extension several importers share (.glb, .gltf, .xml) and none of them recognises is
-// refused here, where assimp would try every format on it. Throws InputError starting with `what`.
+// Readies an importer for `path`, before importer.ReadFile(path, 0). Throws InputError, starting
+// with `what` ("cannot import garment 'x.glb'"), for a file assimp (5.2) would crash on, hang on or
+// leak on: an OBJ face, line or point naming a vertex, texture coordinate or normal the file lacks
+// (assimp leaks the meshes it built when it finds one); a glTF (.gltf, or binary by its magic) whose
+// JSON is not JSON, whose image names a MIME type glTF does not allow (assimp reads freed memory on
+// one) or whose mesh primitive has no POSITION, or a glb chunk longer than the file (assimp allocates
+// and fills it first); a PLY whose header never ends (assimp looks for its end for ever); an OFF file
+// whose header declares more or fewer lines than it has, or whose face has 0 or over 9 corners or
+// names a vertex it lacks, or whose line is over 4 KiB (assimp allocates all the header declares
+// first, reads past its arrays after such faces, and copies a line into a 4 KiB buffer); a text FBX
+// whose connections make a model its own ancestor (assimp recurses until the stack overflows); and a
+// file whose extension several importers share (.glb, .gltf, .xml) and none of them recognises,
+// where assimp would try every format on it. OpenGEX is taken out of the importer (assimp's OpenDDL
+// parser reads past the end of a broken file, and a file of an unknown extension may be tried as
+// OpenGEX). Any other file is left to assimp.
 void prepare_importer(Assimp::Importer& importer, const std::string& path, const std::string& what);
 
 // After importer.ReadFile(path, 0) gave a scene: refuses a face of no corners or one naming a vertex

@@ -287,8 +287,6 @@ Garment import_garment(const std::string& path, const Material& material) {
   if (fs::file_size(path, ec) == 0)
     throw InputError("cannot import garment '" + path + "': the file is empty; export the garment again");
 
-  detail::check_before_assimp(path, "cannot import garment '" + path + "'");
-
   Assimp::Importer importer;
   detail::prepare_importer(importer, path, "cannot import garment '" + path + "'");
   const aiScene* scene = nullptr;

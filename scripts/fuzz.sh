@@ -53,6 +53,11 @@ set +e
   -print_final_stats=1 -artifact_prefix="$findings/" "$@" "$corpus" "$seeds" >"$log" 2>&1
 rc=$?
 set -e
+# A run that ended on a finding leaves its input folder behind (fuzz_input.h); so does any run of a
+# fuzzer no longer alive.
+for d in /dev/shm/kiji-fuzz-* "${TMPDIR:-/tmp}"/kiji-fuzz-*; do
+  [ -d "$d" ] && ! kill -0 "${d##*-}" 2>/dev/null && rm -rf "$d"
+done
 runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo 0)
 rate=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo 0)
 if [ "$rc" -ne 0 ]; then

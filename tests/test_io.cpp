@@ -15,6 +15,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 using namespace kiji;
 using kiji::test::input_error;
@@ -410,6 +411,32 @@ TEST(GarmentFileErrors, AGlbPrimitiveWithoutPositionsIsRefused) {
   for (bool body : {false, true}) {
     const std::string msg = input_error([&] { body ? (void)Body::load(path) : (void)import_garment(path); });
     EXPECT_NE(msg.find("its mesh 0's primitive 0 has no POSITION attribute"), std::string::npos) << msg;
+  }
+}
+
+TEST(GarmentFileErrors, AGlbPrimitiveWhoseAccessorHasAnUndefinedTypeIsRefused) {
+  // A line-loop primitive whose index accessor's type glTF does not define made assimp 5.2
+  // dereference a null array (found by fuzz_garment_glb). Each edit keeps the JSON chunk's length.
+  const std::string path = tmp_path("undefined_accessor.glb");
+  export_garment(seamed_garment(), path);
+  const std::string exported = slurp(path);
+  const std::size_t mode = exported.find("\"mode\":4");
+  const std::size_t scalar = exported.find("\"SCALAR\"");
+  const std::size_t component = exported.find("\"componentType\":5125");
+  ASSERT_NE(scalar, std::string::npos);
+  ASSERT_NE(component, std::string::npos);
+  for (const auto& [at, edit, expected] :
+       {std::tuple<std::size_t, std::string, std::string>{scalar, "\"SKALAR\"", "whose type \"SKALAR\" is not one of glTF's"},
+        {component + 16, "5124", "whose componentType 5124 is not one of glTF's"}}) {
+    std::string bytes = exported;
+    bytes.replace(at, edit.size(), edit);
+    if (mode != std::string::npos) bytes[mode + 7] = '2';
+    std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+    for (bool body : {false, true}) {
+      const std::string msg = input_error([&] { body ? (void)Body::load(path) : (void)import_garment(path); });
+      EXPECT_NE(msg.find("its mesh 0's primitive 0's indices names accessor"), std::string::npos) << msg;
+      EXPECT_NE(msg.find(expected), std::string::npos) << msg;
+    }
   }
 }
 

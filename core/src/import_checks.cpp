@@ -93,6 +93,31 @@ void check_obj_indices(const std::string& path, const std::string& what) {
   }
 }
 
+// assimp 5.2 dereferences a null array when a primitive's accessor has a type or component type
+// glTF does not define (glTF 2.0, 5.1 accessor.type and accessor.componentType).
+void check_gltf_accessor(const nlohmann::json& doc, const nlohmann::json& index, const std::string& what) {
+  const auto fail = [&](const std::string& why) {
+    throw InputError(what + " " + why + "; export the file again");
+  };
+  if (!index.is_number_unsigned()) fail("names the accessor " + index.dump() + ", which is not an index");
+  const std::size_t at = index.get<std::size_t>();
+  if (!doc.contains("accessors") || !doc["accessors"].is_array() || at >= doc["accessors"].size())
+    fail("names accessor " + std::to_string(at) + ", which the file does not have");
+  const nlohmann::json& accessor = doc["accessors"][at];
+  if (!accessor.is_object()) fail("names accessor " + std::to_string(at) + ", which is not an object");
+  static const char* const types[] = {"SCALAR", "VEC2", "VEC3", "VEC4", "MAT2", "MAT3", "MAT4"};
+  const nlohmann::json type = accessor.contains("type") ? accessor["type"] : nlohmann::json();
+  if (!type.is_string() || std::find(std::begin(types), std::end(types), type.get<std::string>()) == std::end(types))
+    fail("names accessor " + std::to_string(at) + ", whose type " + type.dump() +
+         " is not one of glTF's SCALAR, VEC2, VEC3, VEC4, MAT2, MAT3 and MAT4");
+  static const int components[] = {5120, 5121, 5122, 5123, 5125, 5126};
+  const nlohmann::json component = accessor.contains("componentType") ? accessor["componentType"] : nlohmann::json();
+  if (!component.is_number_integer() ||
+      std::find(std::begin(components), std::end(components), component.get<long long>()) == std::end(components))
+    fail("names accessor " + std::to_string(at) + ", whose componentType " + component.dump() +
+         " is not one of glTF's 5120, 5121, 5122, 5123, 5125 and 5126");
+}
+
 // glTF allows only these two for an image (glTF 2.0, 5.18 image.mimeType).
 void check_gltf_json(const std::string& text, const std::string& what) {
   const nlohmann::json doc = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
@@ -110,6 +135,10 @@ void check_gltf_json(const std::string& text, const std::string& what) {
             !p["attributes"].contains("POSITION"))
           throw InputError(what + ": its mesh " + std::to_string(i) + "'s primitive " + std::to_string(j) +
                            " has no POSITION attribute, so no vertices; export the file again");
+        const std::string primitive = what + ": its mesh " + std::to_string(i) + "'s primitive " + std::to_string(j);
+        for (const auto& [name, index] : p["attributes"].items())
+          check_gltf_accessor(doc, index, primitive + "'s attribute " + name);
+        if (p.contains("indices")) check_gltf_accessor(doc, p["indices"], primitive + "'s indices");
       }
     }
   }

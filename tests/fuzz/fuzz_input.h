@@ -17,14 +17,22 @@ namespace kiji::fuzz {
 // (in memory where the system has one), rewritten for every input.
 inline std::string write_input(const std::uint8_t* data, std::size_t size, const std::string& extension) {
   namespace fs = std::filesystem;
-  static const fs::path dir = [] {
-    std::error_code ec;
-    const fs::path base = fs::is_directory("/dev/shm", ec) ? fs::path("/dev/shm") : fs::temp_directory_path();
-    const fs::path d = base / ("kiji-fuzz-" + std::to_string(getpid()));
-    fs::create_directories(d);
-    return d;
-  }();
-  const fs::path path = dir / ("input" + extension);
+  // Removed at a normal exit; scripts/fuzz.sh removes those of runs that ended on a finding.
+  struct Folder {
+    fs::path path;
+    Folder() {
+      std::error_code ec;
+      const fs::path base = fs::is_directory("/dev/shm", ec) ? fs::path("/dev/shm") : fs::temp_directory_path();
+      path = base / ("kiji-fuzz-" + std::to_string(getpid()));
+      fs::create_directories(path);
+    }
+    ~Folder() {
+      std::error_code ec;
+      fs::remove_all(path, ec);
+    }
+  };
+  static const Folder dir;
+  const fs::path path = dir.path / ("input" + extension);
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   out.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
   return path.string();

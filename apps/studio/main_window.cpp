@@ -482,6 +482,11 @@ void MainWindow::share_dialog(bool host) {
   key->setToolTip(host ? "The session's shared secret; a file that does not exist is made (readable by you only): "
                          "give it to those who join"
                        : "The host's key file: only those who have it can join");
+  // Named for scripts and tests that fill the dialog.
+  url->setObjectName("url");
+  channel->setObjectName("channel");
+  name->setObjectName("name");
+  key->setObjectName("key_file");
   auto* browse = new QPushButton("Browse...", &d);
   connect(browse, &QPushButton::clicked, &d, [&] {
     const QString path = host ? QFileDialog::getSaveFileName(&d, "Key file", {}, "Keys (*.key);;All files (*)",

@@ -13,7 +13,12 @@
 
 #include <QCheckBox>
 #include <QComboBox>
+#include <QDialog>
+#include <QDialogButtonBox>
 #include <QDoubleSpinBox>
+#include <QFileInfo>
+#include <QMessageBox>
+#include <QTimer>
 #include <QLabel>
 #include <QLineEdit>
 #include <QPushButton>
@@ -22,6 +27,7 @@
 
 #include <atomic>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <thread>
 
@@ -87,6 +93,26 @@ class StudioTest : public QObject {
       QTest::qWait(20);
     }
     QTest::mouseRelease(&v, Qt::LeftButton, mods, v.project(b).toPoint());
+  }
+
+  // Triggers the window's menu action named `text`; `fill` gets the modal dialog it opens (it runs
+  // inside the dialog's own loop), which is closed afterwards if `fill` left it open.
+  void run_dialog(const QString& text, const std::function<void(QDialog&)>& fill) {
+    QAction* action = nullptr;
+    for (QAction* a : window_->findChildren<QAction*>())
+      if (a->text() == text) action = a;
+    QVERIFY2(action && action->isEnabled(), qPrintable(text));
+    bool filled = false;
+    if (fill)
+      QTimer::singleShot(0, [&] {
+        auto* d = qobject_cast<QDialog*>(QApplication::activeModalWidget());
+        if (!d) return;
+        filled = true;
+        fill(*d);
+        if (d->isVisible()) d->reject();
+      });
+    action->trigger();
+    if (fill) QVERIFY2(filled, qPrintable(text + " opened no dialog"));
   }
 
  private slots:
@@ -258,6 +284,90 @@ class StudioTest : public QObject {
     QVERIFY2(window_->errors().back().contains("probe was asked to fail"), qPrintable(window_->errors().back()));
     QCOMPARE(strokes(), std::size_t(0));
     QVERIFY(!with_session([](Session& s) { return s.stroke_active(); }));
+  }
+
+  // File > Host session and Join session, filled in as a user would: what is typed reaches the
+  // shared session, a join without a key file is stopped with a word, and a bad key file is a
+  // message with the session left unshared. (memq:// is LCM's network inside one process: the
+  // dialogs are tested here, the network by peers_in_studio.sh.)
+  void the_host_and_join_dialogs_share_the_session_as_filled_in() {
+    hanging_square();
+    const QString key = tmp_ + "/dialog.key";
+    QFile::remove(key);
+    const auto field = [](QDialog& d, const char* name) {
+      auto* edit = d.findChild<QLineEdit*>(name);
+      if (!edit) qFatal("the dialog has no field '%s'", name);
+      return edit;
+    };
+    const auto press = [](QDialog& d) { d.findChild<QDialogButtonBox*>()->button(QDialogButtonBox::Ok)->click(); };
+
+    // Join with no key file: a warning, and the dialog stays open for it.
+    QString warning;
+    bool still_open = false;
+    run_dialog("&Join session...", [&](QDialog& d) {
+      QCOMPARE(d.windowTitle(), QString("Join session"));
+      QTimer::singleShot(0, [&] {
+        if (auto* box = qobject_cast<QMessageBox*>(QApplication::activeModalWidget())) {
+          warning = box->text();
+          box->accept();
+        }
+      });
+      press(d);
+      still_open = d.isVisible();
+      // A key file that does not exist: the dialog closes, the app says why it did not join.
+      field(d, "key_file")->setText(tmp_ + "/no-such.key");
+      press(d);
+    });
+    QVERIFY2(warning.contains("Give the key file of the session"), qPrintable(warning));
+    QVERIFY(still_open);
+    QVERIFY(!studio_->shared());
+    QVERIFY2(window_->errors().back().contains("The session was not joined (it goes on unshared): the key file"),
+             qPrintable(window_->errors().back()));
+
+    // Host: the network, channel, name and key file typed are the session's; the key file is made,
+    // readable by its owner only.
+    run_dialog("&Host session...", [&](QDialog& d) {
+      QCOMPARE(d.windowTitle(), QString("Host session"));
+      field(d, "url")->setText("memq://");
+      field(d, "channel")->setText("KIJI_DIALOG_TEST");
+      field(d, "name")->setText("ana");
+      field(d, "key_file")->setText(key);
+      press(d);
+    });
+    QVERIFY(studio_->shared());
+    QVERIFY(wait_until([&] {
+      const auto v = studio_->peer_view();
+      return v && !v->peers.empty() && v->peers.front().self;
+    }));
+    auto view = studio_->peer_view();
+    QVERIFY(view->host);
+    QCOMPARE(view->url, std::string("memq://"));
+    QCOMPARE(view->channel, std::string("KIJI_DIALOG_TEST"));
+    QCOMPARE(view->key_file, key.toStdString());
+    QCOMPARE(view->peers.front().name, std::string("ana"));
+    QVERIFY(QFileInfo(key).isFile());
+    QCOMPARE(QFileInfo(key).permissions() & (QFile::ReadGroup | QFile::WriteGroup | QFile::ReadOther | QFile::WriteOther),
+             QFileDevice::Permissions());
+
+    // Leave, then join with the key the host made.
+    run_dialog("&Leave session", {});
+    QVERIFY(!studio_->shared());
+    run_dialog("&Join session...", [&](QDialog& d) {
+      field(d, "url")->setText("memq://");
+      field(d, "name")->setText("ben");
+      field(d, "key_file")->setText(key);
+      press(d);
+    });
+    QVERIFY(studio_->shared());
+    QVERIFY(wait_until([&] {
+      const auto v = studio_->peer_view();
+      return v && !v->peers.empty() && v->peers.front().self;
+    }));
+    view = studio_->peer_view();
+    QVERIFY(!view->host);
+    QCOMPARE(view->key_file, key.toStdString());
+    QCOMPARE(view->peers.front().name, std::string("ben"));
+    run_dialog("&Leave session", {});
   }
 
   void bad_files_are_messages_and_the_session_is_as_it_was() {

@@ -6,13 +6,14 @@
 #   scripts/sanitizer_build.sh tsan [TARGET...]   build-tsan/: ThreadSanitizer
 #
 # clang-14 at -O1 (the sanitizers' usual level: it compiles faster than -O2 and keeps reports readable),
-# without the benchmarks and the Python module; all targets, or the ones named.
+# without the benchmarks (and, under tsan, the Python module); all targets, or the ones named.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 kind=${1:-}
 shift || true
 case "$kind" in
-  asan) dir=build-asan extra=(-DKIJI_SANITIZE=address,undefined -DKIJI_BUILD_FUZZERS=ON) ;;
+  # The Python module too: Kiji Studio's console, tested in studio_gui, runs it inside the app.
+  asan) dir=build-asan extra=(-DKIJI_SANITIZE=address,undefined -DKIJI_BUILD_FUZZERS=ON -DKIJI_BUILD_PYTHON=ON) ;;
   tsan) dir=build-tsan extra=(-DKIJI_SANITIZE=thread) ;;
   *) echo "usage: scripts/sanitizer_build.sh asan|tsan [TARGET...]" >&2; exit 2 ;;
 esac
@@ -26,7 +27,8 @@ if [ ! -x .venv/bin/python ]; then
 fi
 cmake -S . -B "$dir" -G Ninja -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 \
   -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -DCMAKE_C_FLAGS_RELWITHDEBINFO=-O1 \
-  -DKIJI_BUILD_BENCH=OFF -DKIJI_BUILD_PYTHON=OFF -DPython_EXECUTABLE="$PWD/.venv/bin/python" "${extra[@]}" >/dev/null
+  -DKIJI_BUILD_BENCH=OFF -DKIJI_BUILD_PYTHON=OFF -DPython_EXECUTABLE="$PWD/.venv/bin/python" \
+  -Dpybind11_DIR="$(.venv/bin/python -m pybind11 --cmakedir)" "${extra[@]}" >/dev/null
 targets=()
 for t in "$@"; do targets+=(--target "$t"); done
 cmake --build "$dir" -j "$(nproc)" "${targets[@]}"

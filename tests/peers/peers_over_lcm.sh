@@ -16,7 +16,8 @@ if ! unshare -rn true 2>/dev/null; then
        "user namespaces (sysctl kernel.unprivileged_userns_clone=1)" >&2
   exit 1
 fi
-export KIJI_WORK=$work KIJI_BIN=$kiji KIJI_LOSS=$loss KIJI_REPLAY=$here/pull_corner.json
+# KIJI_PEERS_TIMEOUT: the wall-clock seconds each peer has for the 5 simulated seconds (default 60).
+export KIJI_WORK=$work KIJI_BIN=$kiji KIJI_LOSS=$loss KIJI_REPLAY=$here/pull_corner.json KIJI_PEERS_TIMEOUT=${KIJI_PEERS_TIMEOUT:-60}
 unshare -rn bash -euo pipefail -c '
   ip link set lo up
   ip link set lo mtu 1500
@@ -27,7 +28,7 @@ unshare -rn bash -euo pipefail -c '
     nft add chain ip kiji_loss prerouting "{ type filter hook prerouting priority -450; }"
     nft add rule ip kiji_loss prerouting udp dport 7667 numgen random mod 100 "<" "$KIJI_LOSS" drop
   fi
-  common="--key-file $KIJI_WORK/key --json --seconds 5 --timeout 60 --out"
+  common="--key-file $KIJI_WORK/key --json --seconds 5 --timeout $KIJI_PEERS_TIMEOUT --out"
   "$KIJI_BIN" peer --host --name host $common "$KIJI_WORK/host.glb" > "$KIJI_WORK/host.json" 2> "$KIJI_WORK/host.err" &
   sleep 0.3
   "$KIJI_BIN" peer --name viewer $common "$KIJI_WORK/viewer.glb" > "$KIJI_WORK/viewer.json" 2> "$KIJI_WORK/viewer.err" &

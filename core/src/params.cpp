@@ -119,7 +119,7 @@ void ParamSpec::check(const ParamValue& value) const {
       return;
     }
     case ParamType::Float: {
-      double x;
+      double x = 0;  // set below, or fail() throws
       if (std::holds_alternative<double>(value)) x = std::get<double>(value);
       else if (std::holds_alternative<long long>(value)) x = double(std::get<long long>(value));
       else fail("must be a number, not " + value_text(value));

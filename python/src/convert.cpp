@@ -60,7 +60,7 @@ void bind_errors(py::module_& m) {
 
 std::string path_arg(py::handle obj) {
   if (!py::isinstance<py::str>(obj) && !py::hasattr(obj, "__fspath__"))
-    throw py::type_error("expected a path (str or os.PathLike), not " + std::string(py::str(obj.get_type().attr("__name__"))));
+    throw py::type_error("expected a path (str or os.PathLike), not " + std::string(py::str(py::type::handle_of(obj).attr("__name__"))));
   return py::str(py::module_::import("os").attr("fspath")(obj)).cast<std::string>();
 }
 

@@ -36,7 +36,11 @@ if ! unshare -rn true 2>/dev/null; then
        "needs unprivileged user namespaces (sysctl kernel.unprivileged_userns_clone=1)"
   [ $failures -eq 0 ] && exit 77 || exit 1
 fi
+# The apps' and the peer's wall-clock limits, times KIJI_TEST_SLOWDOWN (a sanitizer build is a few
+# times slower).
+slow=${KIJI_TEST_SLOWDOWN:-1}
 export KIJI_WORK=$work KIJI_STUDIO=$studio KIJI_BIN=$kiji KIJI_XVFB_RUN=$xvfb_run KIJI_REPLAY=$here/../peers/pull_corner.json
+export KIJI_LIMIT60=$((60 * slow)) KIJI_LIMIT90=$((90 * slow))
 unshare -rn bash -uo pipefail -c '
   ip link set lo up
   ip link set lo multicast on
@@ -44,14 +48,14 @@ unshare -rn bash -uo pipefail -c '
   # The app makes the key (it hosts with a key file that does not exist yet); the peer waits for it.
   "$KIJI_XVFB_RUN" -a -s "-screen 0 1600x1200x24" "$KIJI_STUDIO" --window 1000x700 \
     --body /usr/share/assimp/models/Collada/human.zae --garment rect:0.6,0.6,0.02 --device none \
-    --host --name studio --key-file "$KIJI_WORK/session.key" --seconds 6 --quit-after 60 \
+    --host --name studio --key-file "$KIJI_WORK/session.key" --seconds 6 --quit-after $KIJI_LIMIT60 \
     --export "$KIJI_WORK/studio.glb" --screenshot "$KIJI_WORK/studio.png" --save-peers "$KIJI_WORK/peers.json" \
     > "$KIJI_WORK/studio.txt" 2>&1 &
   app=$!
   for i in $(seq 300); do [ -s "$KIJI_WORK/session.key" ] && break; sleep 0.1; done
   stat -c %a "$KIJI_WORK/session.key" > "$KIJI_WORK/key_mode.txt" 2>/dev/null
   # The peer stays until told to leave, so that the app sees its pointer to the end.
-  "$KIJI_BIN" peer --name puller --key-file "$KIJI_WORK/session.key" --replay "$KIJI_REPLAY" --json --timeout 90 \
+  "$KIJI_BIN" peer --name puller --key-file "$KIJI_WORK/session.key" --replay "$KIJI_REPLAY" --json --timeout $KIJI_LIMIT90 \
     --out "$KIJI_WORK/puller.glb" > "$KIJI_WORK/puller.json" 2> "$KIJI_WORK/puller.err" &
   peer=$!
   wait $app
@@ -112,17 +116,17 @@ unshare -rn bash -uo pipefail -c '
   w=$KIJI_WORK/two
   "$KIJI_XVFB_RUN" -a -s "-screen 0 1600x1200x24" "$KIJI_STUDIO" --window 1000x700 \
     --body /usr/share/assimp/models/Collada/human.zae --garment rect:0.6,0.6,0.02 --device none \
-    --host --name ana --key-file "$w/session.key" --seconds 8 --quit-after 90 \
+    --host --name ana --key-file "$w/session.key" --seconds 8 --quit-after $KIJI_LIMIT90 \
     --export "$w/ana.glb" --save-peers "$w/ana.json" > "$w/ana.txt" 2>&1 &
   ana=$!
   for i in $(seq 300); do [ -s "$w/session.key" ] && break; sleep 0.1; done
   # The second app joins before the pull begins: a join would cancel a stroke held past its wait.
   "$KIJI_XVFB_RUN" -a -s "-screen 0 1600x1200x24" "$KIJI_STUDIO" --window 1000x700 --device none \
-    --join --name ben --key-file "$w/session.key" --quit-after 90 \
+    --join --name ben --key-file "$w/session.key" --quit-after $KIJI_LIMIT90 \
     --export "$w/ben.glb" --screenshot "$w/ben.png" --save-peers "$w/ben.json" > "$w/ben.txt" 2>&1 &
   ben=$!
   for i in $(seq 600); do grep -q "in the shared session" "$w/ben.txt" && break; sleep 0.1; done
-  "$KIJI_BIN" peer --name puller --key-file "$w/session.key" --replay "$KIJI_REPLAY" --json --timeout 90 \
+  "$KIJI_BIN" peer --name puller --key-file "$w/session.key" --replay "$KIJI_REPLAY" --json --timeout $KIJI_LIMIT90 \
     --out "$w/puller.glb" > "$w/puller.json" 2> "$w/puller.err" &
   peer=$!
   wait $ana

@@ -5,7 +5,7 @@
 #                                                 and the libFuzzer targets
 #   scripts/sanitizer_build.sh tsan [TARGET...]   build-tsan/: ThreadSanitizer
 #
-# clang-14: asan at -O2 (at -O1 the solver's Eigen code ran its whole suite 1.5 times slower), tsan at
+# clang-14: asan at -O2 (at -O1 a solver test took 1.5 times the CPU time: Eigen's code is not inlined), tsan at
 # -O1 (it runs a few threaded tests, and compiles faster: it is part of CI),
 # without the benchmarks (and, under tsan, the Python module); all targets, or the ones named.
 set -euo pipefail

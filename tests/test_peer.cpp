@@ -265,6 +265,43 @@ TEST(Peers, ALateJoinerGetsTheStateAndIsInStep) {
   EXPECT_GE(g.nodes[0].peer->stats().checkpoints, 1u);
 }
 
+TEST(Peers, AStrokeGoingOnPastTheSharedStopIsGivenUpThereAndSaid) {
+  // A scripted session stops at step 60; a user's stroke goes on after it. Its later events can
+  // never be applied anywhere: they are given up and said, instead of waiting for ever.
+  Group g(3, {}, 2);
+  g.base.stop_step = 60;
+  host_garment(*g.nodes[0].session);
+  g.start(0);
+  g.start(1);
+  g.run_until(0.3);
+  ASSERT_TRUE(g.nodes[1].peer->joined());
+  Session& b = *g.nodes[1].session;
+  const ParamSet params = b.params_for("pinch");
+  const Stroke stroke = line(Vec3(0.3, 0.5, 0), Vec3(0.3, 0.6, 0.1), 60, 0);
+  std::size_t i = 0;
+  g.run_until(2.5, [&] {
+    if (i < stroke.size() && std::fmod(g.net.now(), 0.017) < 0.001) {
+      ToolEvent e = stroke[i++];
+      e.time = b.time();
+      b.apply("pinch", e, &params);
+    }
+  });
+  ASSERT_EQ(i, stroke.size());
+  for (int n : {0, 1}) {
+    EXPECT_EQ(g.nodes[n].session->steps(), 60u);
+    EXPECT_EQ(g.nodes[n].peer->pending(), 0u) << "peer " << n << " still waits for changes that cannot come";
+    EXPECT_TRUE(g.nodes[n].peer->converged());
+  }
+  EXPECT_EQ(g.nodes[0].peer->state_hash(), g.nodes[1].peer->state_hash());
+  EXPECT_TRUE(g.nodes[0].peer->refusals().empty());
+  const auto& r = g.nodes[1].peer->refusals();
+  ASSERT_EQ(r.size(), 1u);
+  EXPECT_NE(r[0].reason.find("came after the shared clock stopped at step 60 and were not applied"), std::string::npos)
+      << r[0].reason;
+  // The stroke's first part, before the stop, was applied on both.
+  EXPECT_GT(g.nodes[0].peer->applied(), 1u);
+}
+
 TEST(Peers, ADisagreementIsFoundReportedAndHealed) {
   Group g(5, {}, 2);
   g.base.stop_step = 120;

@@ -969,6 +969,7 @@ struct Peer::Impl {
       if (!own_hashes.count(session.steps())) record_hash();
       else send(kHash, encode(HashReport{session.steps(), own_hashes[session.steps()]}));
     }
+    if (joined && stop_at && session.steps() >= stop_at && !pending.empty()) give_up_after_stop(stop_at);
     if (presence_set && (last_presence < 0 || now - last_presence > 0.05)) {
       send(kPresence, encode_presence(presence));
       last_presence = now;
@@ -977,6 +978,51 @@ struct Peer::Impl {
     for (auto it = leases.begin(); it != leases.end();)
       it = it->second.expires <= session.steps() ? leases.erase(it) : std::next(it);
     send_chunks();
+  }
+
+  // At the shared stop nothing ordered after it is applied anywhere: this peer's proposals ordered
+  // past it, and those still unordered once every live peer agrees there, would wait for ever (a
+  // stroke longer than the session). They are given up, and said as one refusal.
+  void give_up_after_stop(std::uint64_t stop_at) {
+    const bool all_agree = agree_at(stop_at);
+    std::size_t dropped = 0;
+    for (auto p = pending.begin(); p != pending.end();) {
+      bool past = false, found = false;
+      for (const auto& [g, o] : ordered)
+        if (o.origin == id && o.pseq == p->first) {
+          found = true;
+          past = o.exec_step > stop_at;
+        }
+      if (past || (!found && all_agree)) {
+        p = pending.erase(p);
+        ++dropped;
+      } else {
+        ++p;
+      }
+    }
+    if (!dropped) return;
+    if (given_up_after_stop == 0) {
+      given_up_refusal = refusals.size();
+      refusals.push_back({session.steps(), {}});
+    }
+    given_up_after_stop += dropped;
+    refusals[given_up_refusal].reason = std::to_string(given_up_after_stop) +
+                                        " change(s) came after the shared clock stopped at step " +
+                                        std::to_string(stop_at) + " and were not applied";
+  }
+  std::size_t given_up_after_stop = 0;  // counted in one refusal, refusals[given_up_refusal]
+  std::size_t given_up_refusal = 0;
+
+  // Whether this peer and every live peer reported the same state hash for `step`.
+  bool agree_at(std::uint64_t step) const {
+    const auto own = own_hashes.find(step);
+    if (own == own_hashes.end()) return false;
+    for (const auto& [pid, k] : peers) {
+      if (left.count(pid) || k.heard < 0 || now - k.heard > opt.silence_seconds) continue;
+      const auto h = k.hashes.find(step);
+      if (h == k.hashes.end() || h->second != own->second) return false;
+    }
+    return true;
   }
 
   // The sequencer is silent: the live peer with the lowest id takes the role over with the next

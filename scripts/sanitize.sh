@@ -9,7 +9,8 @@
 #
 # Each build (scripts/sanitizer_build.sh) compiles only what its run needs. Any sanitizer report
 # fails the run: the builds stop at the first report (-fno-sanitize-recover) and the run exits
-# non-zero. KIJI_FUZZ_SECONDS (default 15) is each fuzz target's share of the asan run, 0 skips them.
+# non-zero. KIJI_FUZZ_SECONDS (default 15) is each fuzz target's share of the asan run, 0 skips them;
+# KIJI_FUZZ_SEED fixes the fuzzers' seed.
 # Every phase prints its time.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -63,8 +64,11 @@ for run in "${runs[@]}"; do
       fi
       if [ "${KIJI_FUZZ_SECONDS:-15}" != 0 ]; then
         t=$(date +%s)
+        # KIJI_FUZZ_SEED fixes libFuzzer's seed: the same inputs, in the same order, on every run.
+        seed=()
+        [ -n "${KIJI_FUZZ_SEED:-}" ] && seed=("-seed=$KIJI_FUZZ_SEED")
         for target in tests/fuzz/corpus/*/; do
-          scripts/fuzz.sh "$(basename "$target")" "${KIJI_FUZZ_SECONDS:-15}" || status=1
+          scripts/fuzz.sh "$(basename "$target")" "${KIJI_FUZZ_SECONDS:-15}" "${seed[@]}" || status=1
         done
         echo "kiji sanitize: fuzz targets $(elapsed "$t")"
       fi

@@ -20,6 +20,7 @@
 #include <iterator>
 #include <map>
 #include <set>
+#include <sstream>
 #include <string_view>
 #include <utility>
 #include <vector>
@@ -345,6 +346,48 @@ bool ply_magic(std::string_view head) {
 }
 
 // What assimp (5.2) would crash on, hang on or leak on, refused first: see prepare_importer.
+// assimp takes a file for Collada by "<collada" in its first 200 bytes, whatever its name.
+bool collada_magic(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string head(200, '\0');
+  in.read(head.data(), static_cast<std::streamsize>(head.size()));
+  head.resize(static_cast<std::size_t>(in.gcount()));
+  return lowercase(head).find("<collada") != std::string::npos;
+}
+
+// assimp 5.2 reads a Collada index list (<p>, and <h>, <v>, <vcount>) number by number until its
+// end, and a character that is neither a digit, a sign nor a space stops it from moving on: it
+// appends zeros until memory runs out (a stray letter in a 1 KB file took 12 GB and 36 s).
+void check_collada_index_lists(std::string text, const std::string& what) {
+  // Comments are not read: blanked, keeping every byte's position.
+  for (std::size_t at = text.find("<!--"); at != std::string::npos; at = text.find("<!--", at)) {
+    const std::size_t end = text.find("-->", at + 4);
+    const std::size_t stop = end == std::string::npos ? text.size() : end + 3;
+    std::fill(text.begin() + static_cast<std::ptrdiff_t>(at), text.begin() + static_cast<std::ptrdiff_t>(stop), ' ');
+  }
+  for (const char* name : {"p", "h", "v", "vcount"}) {
+    const std::string open = std::string("<") + name;
+    for (std::size_t at = text.find(open); at != std::string::npos; at = text.find(open, at + 1)) {
+      const std::size_t after = at + open.size();
+      if (after >= text.size()) break;
+      const char c = text[after];
+      if (c != '>' && c != ' ' && c != '\t' && c != '\r' && c != '\n') continue;  // another element
+      const std::size_t start = text.find('>', after);
+      if (start == std::string::npos) break;
+      if (text[start - 1] == '/') continue;  // empty: <p/>
+      for (std::size_t i = start + 1; i < text.size() && text[i] != '<'; ++i) {
+        const unsigned char ch = static_cast<unsigned char>(text[i]);
+        if (std::isdigit(ch) || ch == ' ' || ch == '\t' || ch == '\r' || ch == '\n' || ch == '+' || ch == '-') continue;
+        std::ostringstream shown;
+        if (std::isprint(ch)) shown << "'" << text[i] << "'";
+        else shown << "the byte 0x" << std::hex << int(ch);
+        throw InputError(what + ": its Collada <" + name + "> list holds " + shown.str() + " at byte " + std::to_string(i) +
+                         ", where only whole numbers may be (assimp would read it without end); export the file again");
+      }
+    }
+  }
+}
+
 void check_before_assimp(const std::string& path, const std::string& what) {
   const std::string ext = lower_extension(path);
   if (ext == ".obj") {
@@ -389,6 +432,10 @@ void check_before_assimp(const std::string& path, const std::string& what) {
     in.clear();
     in.seekg(0);
     OffReader(std::string(std::istreambuf_iterator<char>(in), {}), what).check();
+  } else if (ext == ".dae" || collada_magic(path)) {
+    in.clear();
+    in.seekg(0);
+    check_collada_index_lists(std::string(std::istreambuf_iterator<char>(in), {}), what);
   } else if (ext == ".ply" || ply_magic(std::string_view(head, static_cast<std::size_t>(got)))) {
     // assimp takes a file for PLY by the word near its start, not only at it. The header is text and
     // short; one whose first 64 KiB hold no whole end_header line never ends it (assimp then reads on

@@ -345,7 +345,6 @@ bool ply_magic(std::string_view head) {
   return false;
 }
 
-// What assimp (5.2) would crash on, hang on or leak on, refused first: see prepare_importer.
 // assimp takes a file for Collada by "<collada" in its first 200 bytes, whatever its name.
 bool collada_magic(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -388,6 +387,7 @@ void check_collada_index_lists(std::string text, const std::string& what) {
   }
 }
 
+// What assimp (5.2) would crash on, hang on or leak on, refused first: see prepare_importer.
 void check_before_assimp(const std::string& path, const std::string& what) {
   const std::string ext = lower_extension(path);
   if (ext == ".obj") {

@@ -15,8 +15,11 @@ namespace kiji::detail {
 // leak on: an OBJ face, line or point naming a vertex, texture coordinate or normal the file lacks
 // (assimp leaks the meshes it built when it finds one); a glTF (.gltf, or binary by its magic) whose
 // JSON is not JSON, whose image names a MIME type glTF does not allow (assimp reads freed memory on
-// one) or whose mesh primitive has no POSITION, or a glb chunk longer than the file (assimp allocates
-// and fills it first); a PLY whose header never ends (assimp looks for its end for ever); an OFF file
+// one), whose mesh primitive has no POSITION or names an accessor that is missing or of a type or
+// component type glTF does not define (assimp dereferences a null array), or a glb chunk longer than
+// the file (assimp allocates and fills it first); a Collada file (.dae, or by its first bytes) whose
+// <p>, <h>, <v> or <vcount> list holds a character other than digits, signs and spaces (assimp
+// appends zeros until memory runs out); a PLY whose header never ends (assimp looks for its end for ever); an OFF file
 // whose header declares more or fewer lines than it has, or whose face has 0 or over 9 corners or
 // names a vertex it lacks, or whose line is over 4 KiB (assimp allocates all the header declares
 // first, reads past its arrays after such faces, and copies a line into a 4 KiB buffer); a text FBX

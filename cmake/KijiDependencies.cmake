@@ -32,3 +32,5 @@ endif()
 find_package(lcm 1.5 REQUIRED CONFIG)
 # libsodium: the peers' message authentication (HMAC-SHA-512-256 with the session's key).
 pkg_check_modules(SODIUM REQUIRED IMPORTED_TARGET libsodium)
+# minizip (assimp's own zip reader): zipped Collada bodies are checked before assimp reads them.
+pkg_check_modules(MINIZIP REQUIRED IMPORTED_TARGET minizip)

@@ -7,7 +7,7 @@ cd "$(dirname "$0")/.."
 
 packages=(
   build-essential cmake ninja-build pkg-config git
-  libeigen3-dev libcgal-dev libbullet-dev libassimp-dev assimp-testmodels
+  libeigen3-dev libcgal-dev libbullet-dev libassimp-dev libminizip-dev assimp-testmodels
   libpng-dev zlib1g-dev libgtest-dev nlohmann-json3-dev libglib2.0-dev libsodium-dev
   iproute2 nftables util-linux
   python3 python3-dev python3-venv

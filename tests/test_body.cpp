@@ -7,6 +7,7 @@
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 #include <gtest/gtest.h>
+#include <zip.h>
 
 #include <algorithm>
 #include <chrono>
@@ -420,6 +421,43 @@ TEST(BodyImportErrors, APlyFoundByItsContentWhoseHeaderLineNeverEndsIsRefused) {
   }
 }
 
+TEST(BodyImportErrors, AFileThatLooksLikeTwoFormatsIsCheckedAsEach) {
+  // A PLY header running on into a Collada document, named .ply: assimp reads it as PLY past the
+  // header's end and crashed (found by fuzz_body); it was checked only as Collada.
+  const std::string path = tmp_file("both.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 4\n"
+                                                "property float x\n<?xml version=\"1.0\"?>\n<COLLADA version=\"1.4.1\">\n"
+                                                "<library_geometries/></COLLADA>\n");
+  const std::string msg = input_error([&] { Body::load(path); });
+  EXPECT_NE(msg.find("its PLY header has no end_header line"), std::string::npos) << msg;
+}
+
+TEST(BodyImportErrors, APlyDeclaringFarMoreElementsThanItHoldsIsRefusedNotAllocated) {
+  // assimp 5.2 allocates the declared faces, then seeks past the end once for each (found by CI's
+  // fuzz phase: fuzz_body timed out in DefaultIOStream::Seek under the PLY importer).
+  const std::string head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                           "property float z\nelement face ";
+  const std::string tail = "\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n0 1 0\n1 0 0\n3 0 1 2\n";
+  const std::string faces = tmp_file("many_faces.ply", head + "30000000" + tail);
+  std::string msg = input_error([&] { Body::load(faces); });
+  EXPECT_NE(msg.find(faces), std::string::npos) << msg;
+  EXPECT_NE(msg.find("its PLY header declares 3 vertex and 30000000 face elements"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("but the file has 26 after its header"), std::string::npos) << msg;
+  // Binary: each vertex is 12 bytes, so 3 million of them cannot be in 8, whatever the file's name.
+  const std::string binary = tmp_file("many_vertices.dat", std::string("\x04ply\nformat binary_little_endian 1.0\n"
+                                                                       "element vertex 3000000\nproperty float x\n"
+                                                                       "property float y\nproperty float z\nend_header\n") +
+                                                               std::string(8, '\0'));
+  msg = input_error([&] { Body::load(binary); });
+  EXPECT_NE(msg.find("declares 3000000 vertex elements, at least 36000000 bytes"), std::string::npos) << msg;
+  // The same file holding what it declares is a body.
+  const Body one = Body::load(tmp_file("one_face.ply", head + "1" + tail));
+  EXPECT_EQ(one.triangles().size(), 1u);
+  // A file a little short is still assimp's to read as far as it goes: its own point cloud
+  // pond.0.ply lacks 69 bytes, and is refused for having no faces, not for its header.
+  msg = input_error([&] { Body::load(models + "/PLY/pond.0.ply"); });
+  EXPECT_EQ(msg.find("PLY header"), std::string::npos) << msg;
+}
+
 TEST(BodyImportErrors, AnOffFileWhoseFacesAssimpWouldReadPastIsRefused) {
   // Face lines of no corners make assimp 5.2's OFF reader count its faces below zero and read past
   // its arrays (found by fuzz_body: a segmentation fault inside Importer::ReadFile).
@@ -511,6 +549,42 @@ TEST(BodyImportErrors, AColladaIndexListWithAStrayCharacterIsRefusedNotReadForEv
   std::string commented = dae;
   commented.insert(commented.find("<library_geometries>"), "<!-- <p>a list in words</p> -->");
   EXPECT_EQ(Body::load(tmp_file("commented.dae", commented)).triangles().size(), 4u);
+}
+
+// A zip holding the files given (name, bytes), as a zipped Collada body (.zae) is.
+std::string zip_file(const std::string& name, const std::vector<std::pair<std::string, std::string>>& entries) {
+  const std::string path = tmp_file(name, "");
+  zipFile zip = zipOpen64(path.c_str(), APPEND_STATUS_CREATE);
+  EXPECT_NE(zip, nullptr);
+  for (const auto& [entry, bytes] : entries) {
+    EXPECT_EQ(zipOpenNewFileInZip64(zip, entry.c_str(), nullptr, nullptr, 0, nullptr, 0, nullptr, Z_DEFLATED,
+                                    Z_DEFAULT_COMPRESSION, 0),
+              ZIP_OK);
+    EXPECT_EQ(zipWriteInFileInZip(zip, bytes.data(), static_cast<unsigned>(bytes.size())), ZIP_OK);
+    EXPECT_EQ(zipCloseFileInZip(zip), ZIP_OK);
+  }
+  EXPECT_EQ(zipClose(zip, nullptr), ZIP_OK);
+  return path;
+}
+
+TEST(BodyImportErrors, AZippedColladaBodyIsCheckedAsADaeFileIs) {
+  // assimp reads the Collada document inside a .zae (any zip holding a .dae, whatever its name)
+  // with the same index-list reader that appends zeros without end on a stray character.
+  const std::string dae = kZupCentimetreDae;
+  const std::string list = "<p>0 2 1 0 1 3 1 2 3 2 0 3</p>";
+  std::string bad = dae;
+  bad.replace(bad.find(list), list.size(), "<p>0 2 1 0 1 3 x 2 3 2 0 3</p>");
+  for (const char* name : {"stray.zae", "stray.bin"}) {
+    const std::string path = zip_file(name, {{"body.dae", bad}});
+    const std::string msg = input_error([&] { Body::load(path); });
+    EXPECT_NE(msg.find(path + "' (its body.dae)"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("its Collada <p> list holds 'x'"), std::string::npos) << msg;
+  }
+  // The same document sound, beside a manifest, loads: the tetrahedron's four faces.
+  const std::string good = zip_file("tet.zae", {{"manifest.xml", "<dae_root>tet.dae</dae_root>"}, {"tet.dae", dae}});
+  EXPECT_EQ(Body::load(good).triangles().size(), 4u);
+  // The default body is a .zae, and passes.
+  EXPECT_GT(Body::load(Body::default_path()).triangles().size(), 1000u);
 }
 
 TEST(BodyImportErrors, LinesOnlyAndPointsOnlyHaveNoTriangles) {

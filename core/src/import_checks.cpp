@@ -8,6 +8,7 @@
 #include <assimp/scene.h>
 
 #include <nlohmann/json.hpp>
+#include <unzip.h>
 
 #include <algorithm>
 #include <cctype>
@@ -19,6 +20,7 @@
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <memory>
 #include <set>
 #include <sstream>
 #include <string_view>
@@ -345,6 +347,73 @@ bool ply_magic(std::string_view head) {
   return false;
 }
 
+// The fewest bytes one value of a PLY property type takes in a binary file; a type assimp does not
+// know counts as one, so that only a file that cannot hold what it declares is refused.
+std::uint64_t ply_binary_size(const std::string& type) {
+  static const std::map<std::string, std::uint64_t> sizes = {
+      {"char", 1},  {"int8", 1},    {"uchar", 1},  {"uint8", 1},   {"short", 2},   {"int16", 2},  {"ushort", 2},
+      {"uint16", 2}, {"int", 4},    {"int32", 4},  {"uint", 4},    {"uint32", 4},  {"float", 4},  {"float32", 4},
+      {"double", 8}, {"float64", 8}};
+  const auto it = sizes.find(type);
+  return it == sizes.end() ? 1 : it->second;
+}
+
+// assimp 5.2 allocates what a PLY header's element counts declare before reading them, and then
+// reads on past the file's end one seek at a time (a 200-byte file declaring 30 million faces took
+// 4.8 GB and over a minute). Every element takes at least so many bytes (a binary value its type's
+// size, an ASCII value a character and a separator), so a header declaring more than the rest of
+// the file can hold by far is refused. `header` is the file up to its end_header line; `rest` the
+// bytes after.
+void check_ply_counts(std::string_view header, std::uint64_t rest, const std::string& what) {
+  bool binary = false;
+  struct Element {
+    std::string name;
+    std::uint64_t count = 0, least = 0;
+  };
+  std::vector<Element> elements;
+  std::size_t line_start = 0;
+  while (line_start < header.size()) {
+    std::size_t line_end = header.find('\n', line_start);
+    if (line_end == std::string_view::npos) line_end = header.size();
+    std::istringstream line{std::string(header.substr(line_start, line_end - line_start))};
+    line_start = line_end + 1;
+    std::string word;
+    line >> word;
+    if (word == "format") {
+      std::string kind;
+      line >> kind;
+      binary = kind.rfind("binary", 0) == 0;
+    } else if (word == "element") {
+      Element e;
+      std::string count;
+      line >> e.name >> count;
+      // As a C reader takes a number: its leading digits, so long a run of them saturates.
+      for (char c : count) {
+        if (!std::isdigit(static_cast<unsigned char>(c))) break;
+        e.count = std::min<std::uint64_t>(e.count * 10 + std::uint64_t(c - '0'), std::uint64_t(1) << 32);
+      }
+      elements.push_back(e);
+    } else if (word == "property" && !elements.empty()) {
+      std::string type;
+      line >> type;
+      if (type == "list") line >> type;  // a list holds its count, and may hold nothing more
+      elements.back().least += binary ? ply_binary_size(type) : 2;
+    }
+  }
+  std::uint64_t need = 0;
+  for (const Element& e : elements) need += e.count * e.least;  // under 2^32 * 8 * 64 Ki, far from overflowing
+  // assimp reads a file cut short as far as it goes (its own test model pond.0.ply lacks 69 bytes),
+  // so a shortfall bounded by the file's size, and so the work it makes, is left to it.
+  if (need > rest + rest / 4 + 4096) {
+    std::string declared;
+    for (const Element& e : elements)
+      if (e.count > 0) declared += (declared.empty() ? "" : " and ") + std::to_string(e.count) + " " + e.name;
+    throw InputError(what + ": its PLY header declares " + declared + " elements, at least " + std::to_string(need) +
+                     " bytes, but the file has " + std::to_string(rest) +
+                     " after its header; the file is cut short or its header is wrong, export it again");
+  }
+}
+
 // assimp takes a file for Collada by "<collada" in its first 200 bytes, whatever its name.
 bool collada_magic(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -387,6 +456,33 @@ void check_collada_index_lists(std::string text, const std::string& what) {
   }
 }
 
+// A zipped Collada file (.zae) is any zip holding a .dae, whatever its name: assimp reads the
+// document its manifest names, or the first .dae. Every Collada document in it is checked as a
+// .dae file is.
+void check_zipped_collada(const std::string& path, const std::string& what) {
+  const std::unique_ptr<void, int (*)(unzFile)> zip(unzOpen64(path.c_str()), unzClose);
+  if (!zip) return;  // assimp's to refuse
+  for (int at = unzGoToFirstFile(zip.get()); at == UNZ_OK; at = unzGoToNextFile(zip.get())) {
+    unz_file_info64 info{};
+    char name[512] = {};
+    if (unzGetCurrentFileInfo64(zip.get(), &info, name, sizeof name, nullptr, 0, nullptr, 0) != UNZ_OK ||
+        unzOpenCurrentFile(zip.get()) != UNZ_OK)
+      return;  // assimp's to refuse
+    // Read in pieces: a zip's sizes are its own word, and assimp allocates what the entry declares.
+    std::string text;
+    char piece[1 << 16];
+    int got = 0;
+    constexpr std::size_t most = std::size_t(512) << 20;
+    while ((got = unzReadCurrentFile(zip.get(), piece, sizeof piece)) > 0 && text.size() <= most)
+      text.append(piece, static_cast<std::size_t>(got));
+    unzCloseCurrentFile(zip.get());
+    if (text.size() > most)
+      throw InputError(what + ": its " + name + " unpacks to over 512 MiB, more than a body needs; export it again");
+    if (lower_extension(name) == ".dae" || lowercase(text.substr(0, 200)).find("<collada") != std::string::npos)
+      check_collada_index_lists(std::move(text), what + " (its " + name + ")");
+  }
+}
+
 // What assimp (5.2) would crash on, hang on or leak on, refused first: see prepare_importer.
 void check_before_assimp(const std::string& path, const std::string& what) {
   const std::string ext = lower_extension(path);
@@ -398,6 +494,8 @@ void check_before_assimp(const std::string& path, const std::string& what) {
   char head[20] = {};
   in.read(head, sizeof head);
   const std::streamsize got = in.gcount();
+  // assimp 5.2 gives a file to the first importer that takes it, some by name and some by content,
+  // so every check whose format the file may be read as is made.
   if (got >= 4 && std::memcmp(head, "glTF", 4) == 0) {
     // Binary glTF: a 12-byte header, then the JSON chunk (its length, "JSON", the text), then the
     // BIN chunk if the header's length leaves room for one. A file not laid out so is assimp's to
@@ -426,17 +524,24 @@ void check_before_assimp(const std::string& path, const std::string& what) {
   } else if (ext == ".gltf") {
     in.seekg(0);
     check_gltf_json(std::string(std::istreambuf_iterator<char>(in), {}), what);
-  } else if (ext == ".fbx" || std::string_view(head, static_cast<std::size_t>(got)).find("; FBX") != std::string_view::npos) {
+  }
+  if (ext == ".fbx" || std::string_view(head, static_cast<std::size_t>(got)).find("; FBX") != std::string_view::npos) {
     if (std::string_view(head, static_cast<std::size_t>(got)).rfind("Kaydara", 0) != 0) check_fbx_text_connections(path, what);
-  } else if (ext == ".off" || off_magic(std::string_view(head, static_cast<std::size_t>(got)))) {
+  }
+  if (ext == ".off" || off_magic(std::string_view(head, static_cast<std::size_t>(got)))) {
     in.clear();
     in.seekg(0);
     OffReader(std::string(std::istreambuf_iterator<char>(in), {}), what).check();
-  } else if (ext == ".dae" || collada_magic(path)) {
+  }
+  if (got >= 4 && std::memcmp(head, "PK\x03\x04", 4) == 0) {
+    check_zipped_collada(path, what);
+  }
+  if (ext == ".dae" || collada_magic(path)) {
     in.clear();
     in.seekg(0);
     check_collada_index_lists(std::string(std::istreambuf_iterator<char>(in), {}), what);
-  } else if (ext == ".ply" || ply_magic(std::string_view(head, static_cast<std::size_t>(got)))) {
+  }
+  if (ext == ".ply" || ply_magic(std::string_view(head, static_cast<std::size_t>(got)))) {
     // assimp takes a file for PLY by the word near its start, not only at it. The header is text and
     // short; one whose first 64 KiB hold no whole end_header line never ends it (assimp then reads on
     // without end).
@@ -451,6 +556,10 @@ void check_before_assimp(const std::string& path, const std::string& what) {
                            (start[after] == '\n' || (start[after] == '\r' && after + 1 < start.size() && start[after + 1] == '\n'));
     if (!line_ends)
       throw InputError(what + ": its PLY header has no end_header line in its first 64 KiB; export the file again");
+    std::error_code ec;
+    const std::uintmax_t size = fs::file_size(path, ec);
+    const std::size_t body = after + (start[after] == '\r' ? 2 : 1);
+    if (!ec && size >= body) check_ply_counts(std::string_view(start).substr(0, at), size - body, what);
   }
 }
 

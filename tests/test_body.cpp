@@ -551,6 +551,30 @@ TEST(BodyImportErrors, AColladaIndexListWithAStrayCharacterIsRefusedNotReadForEv
   EXPECT_EQ(Body::load(tmp_file("commented.dae", commented)).triangles().size(), 4u);
 }
 
+TEST(BodyImportErrors, AColladaAccessorReadingPastItsArrayIsRefused) {
+  // assimp 5.2 reads an accessor's values without checking its array holds them: an array without
+  // its count attribute (assimp keeps none of its values) crashed it on a null pointer (found by
+  // fuzz_body); a count too small, or a stride too wide, reads past the array's end.
+  const std::string dae = kZupCentimetreDae;
+  const std::string array = "count=\"12\">0 0 0 100";
+  const std::string accessor = "count=\"4\" stride=\"3\"";
+  ASSERT_NE(dae.find(array), std::string::npos);
+  ASSERT_NE(dae.find(accessor), std::string::npos);
+  for (const auto& [from, to, reads, holds] :
+       {std::tuple<std::string, std::string, int, int>{array, "cotun=\"12\">0 0 0 100", 12, 0},
+        {array, "count=\"11\">0 0 0 100", 12, 11},
+        {accessor, "count=\"4\" stride=\"4\"", 16, 12},
+        {accessor, "count=\"4\" stride=\"3\" offset=\"1\"", 13, 12}}) {
+    std::string text = dae;
+    text.replace(text.find(from), from.size(), to);
+    const std::string msg = input_error([&] { Body::load(tmp_file("accessor.dae", text)); });
+    EXPECT_NE(msg.find("its Collada accessor of '#tet-pos-array' reads " + std::to_string(reads) +
+                       " values, but the array holds " + std::to_string(holds)),
+              std::string::npos)
+        << to << ": " << msg;
+  }
+}
+
 // A zip holding the files given (name, bytes), as a zipped Collada body (.zae) is.
 std::string zip_file(const std::string& name, const std::vector<std::pair<std::string, std::string>>& entries) {
   const std::string path = tmp_file(name, "");

@@ -21,6 +21,7 @@
 #include <iterator>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <string_view>
@@ -426,13 +427,7 @@ bool collada_magic(const std::string& path) {
 // assimp 5.2 reads a Collada index list (<p>, and <h>, <v>, <vcount>) number by number until its
 // end, and a character that is neither a digit, a sign nor a space stops it from moving on: it
 // appends zeros until memory runs out (a stray letter in a 1 KB file took 12 GB and 36 s).
-void check_collada_index_lists(std::string text, const std::string& what) {
-  // Comments are not read: blanked, keeping every byte's position.
-  for (std::size_t at = text.find("<!--"); at != std::string::npos; at = text.find("<!--", at)) {
-    const std::size_t end = text.find("-->", at + 4);
-    const std::size_t stop = end == std::string::npos ? text.size() : end + 3;
-    std::fill(text.begin() + static_cast<std::ptrdiff_t>(at), text.begin() + static_cast<std::ptrdiff_t>(stop), ' ');
-  }
+void check_collada_index_lists(const std::string& text, const std::string& what) {
   for (const char* name : {"p", "h", "v", "vcount"}) {
     const std::string open = std::string("<") + name;
     for (std::size_t at = text.find(open); at != std::string::npos; at = text.find(open, at + 1)) {
@@ -454,6 +449,91 @@ void check_collada_index_lists(std::string text, const std::string& what) {
       }
     }
   }
+}
+
+// The value of attribute `name` in the start tag `tag` (its text from '<' to '>'), if it has one.
+std::optional<std::string> xml_attribute(std::string_view tag, const std::string& name) {
+  for (std::size_t at = tag.find(name + "="); at != std::string_view::npos; at = tag.find(name + "=", at + 1)) {
+    if (at == 0 || !std::isspace(static_cast<unsigned char>(tag[at - 1]))) continue;  // the end of another name
+    const std::size_t open = at + name.size() + 1;
+    if (open >= tag.size() || (tag[open] != '"' && tag[open] != '\'')) return std::nullopt;
+    const std::size_t close = tag.find(tag[open], open + 1);
+    if (close == std::string_view::npos) return std::nullopt;
+    return std::string(tag.substr(open + 1, close - open - 1));
+  }
+  return std::nullopt;
+}
+
+// An unsigned attribute as assimp's XML reader takes it: its leading digits, saturating; a value
+// that does not start with a digit (a sign included) as the largest, so that checks refuse it.
+std::uint64_t xml_count(const std::optional<std::string>& value, std::uint64_t absent) {
+  if (!value) return absent;
+  std::size_t i = 0;
+  while (i < value->size() && std::isspace(static_cast<unsigned char>((*value)[i]))) ++i;
+  if (i == value->size() || !std::isdigit(static_cast<unsigned char>((*value)[i]))) return std::uint64_t(1) << 40;
+  std::uint64_t n = 0;
+  for (; i < value->size() && std::isdigit(static_cast<unsigned char>((*value)[i])); ++i)
+    n = std::min<std::uint64_t>(n * 10 + std::uint64_t((*value)[i] - '0'), std::uint64_t(1) << 40);
+  return n;
+}
+
+// Every start tag `<name ...>` or `<name>` in the text, as views from '<' to '>'.
+std::vector<std::string_view> xml_start_tags(std::string_view text, const std::string& name) {
+  std::vector<std::string_view> tags;
+  const std::string open = "<" + name;
+  for (std::size_t at = text.find(open); at != std::string_view::npos; at = text.find(open, at + 1)) {
+    const std::size_t after = at + open.size();
+    if (after >= text.size()) break;
+    const char c = text[after];
+    if (c != '>' && c != '/' && !std::isspace(static_cast<unsigned char>(c))) continue;  // another element
+    const std::size_t close = text.find('>', after);
+    if (close == std::string_view::npos) break;
+    tags.push_back(text.substr(at, close - at + 1));
+  }
+  return tags;
+}
+
+// assimp 5.2 reads an accessor's values from its source array without checking that the array
+// holds them: an array without a count attribute (assimp then keeps none of its values) crashed it
+// on a null pointer. An accessor reads `count` groups of `stride` values from `offset`, each group
+// as wide as its <param>s.
+void check_collada_accessors(std::string_view text, const std::string& what) {
+  std::map<std::string, std::uint64_t> kept;  // array id -> how many values assimp keeps of it
+  for (const char* type : {"float_array", "int_array", "bool_array", "Name_array", "IDREF_array", "SIDREF_array"})
+    for (std::string_view tag : xml_start_tags(text, type))
+      if (const auto id = xml_attribute(tag, "id")) kept[*id] = xml_count(xml_attribute(tag, "count"), 0);
+  for (std::string_view tag : xml_start_tags(text, "accessor")) {
+    const std::optional<std::string> source = xml_attribute(tag, "source");
+    if (!source) continue;
+    const auto array = kept.find(source->substr(source->rfind('#', 0) == 0 ? 1 : 0));
+    if (array == kept.end()) continue;  // assimp refuses a reference it cannot resolve
+    const std::uint64_t count = xml_count(xml_attribute(tag, "count"), 0);
+    if (count == 0) continue;
+    const std::uint64_t stride = xml_count(xml_attribute(tag, "stride"), 1);
+    const std::uint64_t offset = xml_count(xml_attribute(tag, "offset"), 0);
+    const std::size_t at = static_cast<std::size_t>(tag.data() - text.data());
+    const std::size_t end = text.find("</accessor>", at);
+    const bool empty = tag.size() >= 2 && tag[tag.size() - 2] == '/';
+    const std::string_view inside = empty ? std::string_view() : text.substr(at, end == std::string_view::npos ? text.npos : end - at);
+    const std::uint64_t params = xml_start_tags(inside, "param").size();
+    const std::uint64_t need = offset + (count - 1) * stride + std::max(stride, params);
+    if (need > array->second)
+      throw InputError(what + ": its Collada accessor of '" + *source + "' reads " + std::to_string(need) +
+                       " values, but the array holds " + std::to_string(array->second) +
+                       (array->second == 0 ? " (has it a count attribute?)" : "") + "; export the file again");
+  }
+}
+
+// A Collada document's text checked for what assimp 5.2 would read without end or crash on.
+void check_collada(std::string text, const std::string& what) {
+  // Comments are not read: blanked, keeping every byte's position.
+  for (std::size_t at = text.find("<!--"); at != std::string::npos; at = text.find("<!--", at)) {
+    const std::size_t end = text.find("-->", at + 4);
+    const std::size_t stop = end == std::string::npos ? text.size() : end + 3;
+    std::fill(text.begin() + static_cast<std::ptrdiff_t>(at), text.begin() + static_cast<std::ptrdiff_t>(stop), ' ');
+  }
+  check_collada_index_lists(text, what);
+  check_collada_accessors(text, what);
 }
 
 // A zipped Collada file (.zae) is any zip holding a .dae, whatever its name: assimp reads the
@@ -479,7 +559,7 @@ void check_zipped_collada(const std::string& path, const std::string& what) {
     if (text.size() > most)
       throw InputError(what + ": its " + name + " unpacks to over 512 MiB, more than a body needs; export it again");
     if (lower_extension(name) == ".dae" || lowercase(text.substr(0, 200)).find("<collada") != std::string::npos)
-      check_collada_index_lists(std::move(text), what + " (its " + name + ")");
+      check_collada(std::move(text), what + " (its " + name + ")");
   }
 }
 
@@ -539,7 +619,7 @@ void check_before_assimp(const std::string& path, const std::string& what) {
   if (ext == ".dae" || collada_magic(path)) {
     in.clear();
     in.seekg(0);
-    check_collada_index_lists(std::string(std::istreambuf_iterator<char>(in), {}), what);
+    check_collada(std::string(std::istreambuf_iterator<char>(in), {}), what);
   }
   if (ext == ".ply" || ply_magic(std::string_view(head, static_cast<std::size_t>(got)))) {
     // assimp takes a file for PLY by the word near its start, not only at it. The header is text and

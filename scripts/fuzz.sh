@@ -48,6 +48,7 @@ case "$target" in
 esac
 export ASAN_OPTIONS=detect_leaks=$leaks:abort_on_error=1:allocator_may_return_null=1:verify_asan_link_order=0
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+started=$SECONDS
 set +e
 "build-asan/fuzz/$target" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len=65536 \
   -print_final_stats=1 -artifact_prefix="$findings/" "$@" "$corpus" "$seeds" >"$log" 2>&1
@@ -65,4 +66,5 @@ if [ "$rc" -ne 0 ]; then
   echo "kiji fuzz: $target FOUND A PROBLEM after $runs executions (exit $rc): input in $findings/, log in $log" >&2
   exit 1
 fi
-echo "kiji fuzz: $target: $runs executions in $seconds s ($rate a second), no finding; corpus $(ls "$corpus" | wc -l) inputs"
+# The time it ran: options such as -runs can end it before SECONDS.
+echo "kiji fuzz: $target: $runs executions in $((SECONDS - started)) s ($rate a second), no finding; corpus $(ls "$corpus" | wc -l) inputs"

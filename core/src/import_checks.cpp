@@ -123,7 +123,81 @@ void check_gltf_accessor(const nlohmann::json& doc, const nlohmann::json& index,
 }
 
 // glTF allows only these two for an image (glTF 2.0, 5.18 image.mimeType).
-void check_gltf_json(const std::string& text, const std::string& what) {
+// Base64 as a data: URI holds it; nothing for text that is not.
+std::optional<std::string> base64_decode(std::string_view text) {
+  std::string out;
+  unsigned bits = 0, held = 0;
+  for (char c : text) {
+    int v = c >= 'A' && c <= 'Z' ? c - 'A' : c >= 'a' && c <= 'z' ? c - 'a' + 26 : c >= '0' && c <= '9' ? c - '0' + 52
+            : c == '+' ? 62 : c == '/' ? 63 : -1;
+    if (c == '=') break;
+    if (v < 0) return std::nullopt;
+    bits = (bits << 6) | unsigned(v);
+    held += 6;
+    if (held >= 8) {
+      held -= 8;
+      out.push_back(static_cast<char>((bits >> held) & 0xff));
+    }
+  }
+  return out;
+}
+
+// The bytes of a glTF buffer: a glb's BIN chunk (buffer 0 without a uri), a data: URI, or a file
+// beside the document. Nothing where it cannot be had; assimp then refuses the file itself.
+std::optional<std::string> gltf_buffer(const nlohmann::json& doc, std::size_t index, const std::optional<std::string>& bin,
+                                       const fs::path& folder) {
+  if (!doc.contains("buffers") || !doc["buffers"].is_array() || index >= doc["buffers"].size()) return std::nullopt;
+  const nlohmann::json& buffer = doc["buffers"][index];
+  if (!buffer.is_object()) return std::nullopt;
+  if (!buffer.contains("uri")) return index == 0 ? bin : std::nullopt;
+  if (!buffer["uri"].is_string()) return std::nullopt;
+  const std::string uri = buffer["uri"].get<std::string>();
+  if (uri.rfind("data:", 0) == 0) {
+    const std::size_t comma = uri.find(";base64,");
+    return comma == std::string::npos ? std::nullopt : base64_decode(std::string_view(uri).substr(comma + 8));
+  }
+  std::ifstream in(folder / uri, std::ios::binary);
+  if (!in) return std::nullopt;
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// assimp 5.2 builds a line strip's, line loop's or triangle fan's faces from the face before, and
+// leaves a face empty where an index names no vertex: the next one then reads through a null
+// pointer (found by fuzz_body). So every index a primitive holds must name one of its vertices.
+void check_gltf_indices(const nlohmann::json& doc, const nlohmann::json& primitive, const std::optional<std::string>& bin,
+                        const fs::path& folder, const std::string& what) {
+  const nlohmann::json& accessors = doc["accessors"];  // checked before: the accessors exist
+  const nlohmann::json& indices = accessors[primitive["indices"].get<std::size_t>()];
+  const nlohmann::json& positions = accessors[primitive["attributes"]["POSITION"].get<std::size_t>()];
+  auto number = [](const nlohmann::json& object, const char* key, std::uint64_t absent) -> std::optional<std::uint64_t> {
+    if (!object.contains(key)) return absent;
+    if (!object[key].is_number_unsigned()) return std::nullopt;
+    return object[key].get<std::uint64_t>();
+  };
+  const auto vertices = number(positions, "count", 0), count = number(indices, "count", 0);
+  const auto view_index = number(indices, "bufferView", ~std::uint64_t(0)), offset = number(indices, "byteOffset", 0);
+  if (!vertices || !count || !view_index || !offset || !doc.contains("bufferViews") || !doc["bufferViews"].is_array() ||
+      *view_index >= doc["bufferViews"].size())
+    return;  // no index data, or none assimp reads
+  const nlohmann::json& view = doc["bufferViews"][*view_index];
+  if (!view.is_object()) return;
+  const auto buffer_index = number(view, "buffer", ~std::uint64_t(0)), view_offset = number(view, "byteOffset", 0);
+  if (!buffer_index || !view_offset) return;
+  const std::optional<std::string> buffer = gltf_buffer(doc, *buffer_index, bin, folder);
+  const std::uint64_t size = indices["componentType"] == 5121 ? 1 : indices["componentType"] == 5123 ? 2 : 4;
+  if (!buffer || *count > buffer->size() || *view_offset + *offset + *count * size > buffer->size()) return;
+  const auto* bytes = reinterpret_cast<const unsigned char*>(buffer->data() + *view_offset + *offset);
+  for (std::uint64_t i = 0; i < *count; ++i) {
+    std::uint64_t v = 0;
+    for (std::uint64_t k = 0; k < size; ++k) v |= std::uint64_t(bytes[i * size + k]) << (8 * k);
+    if (v >= *vertices)
+      throw InputError(what + "'s index " + std::to_string(i) + " names vertex " + std::to_string(v) + ", but it has " +
+                       std::to_string(*vertices) + "; export the file again");
+  }
+}
+
+void check_gltf_json(const std::string& text, const std::string& what, const std::optional<std::string>& bin,
+                     const fs::path& folder) {
   const nlohmann::json doc = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (doc.is_discarded()) throw InputError(what + ": its glTF JSON is not valid JSON; export the file again");
   if (!doc.is_object()) return;
@@ -142,7 +216,11 @@ void check_gltf_json(const std::string& text, const std::string& what) {
         const std::string primitive = what + ": its mesh " + std::to_string(i) + "'s primitive " + std::to_string(j);
         for (const auto& [name, index] : p["attributes"].items())
           check_gltf_accessor(doc, index, primitive + "'s attribute " + name);
-        if (p.contains("indices")) check_gltf_accessor(doc, p["indices"], primitive + "'s indices");
+        if (p.contains("indices")) {
+          check_gltf_accessor(doc, p["indices"], primitive + "'s indices");
+          check_gltf_accessor(doc, p["attributes"]["POSITION"], primitive + "'s attribute POSITION");
+          check_gltf_indices(doc, p, bin, folder, primitive);
+        }
       }
     }
   }
@@ -706,10 +784,15 @@ void check_before_assimp(const std::string& path, const std::string& what) {
       if (in.gcount() == 8 && std::memcmp(chunk + 4, "BIN", 4) == 0 && le32(chunk) > size - bin - 8)
         too_long("BIN", le32(chunk), size - bin - 8);
     }
-    check_gltf_json(text, what);
+    std::optional<std::string> data;
+    if (in.gcount() == 8 && std::memcmp(chunk + 4, "BIN", 4) == 0) {
+      data.emplace(le32(chunk), '\0');
+      in.read(data->data(), static_cast<std::streamsize>(data->size()));
+    }
+    check_gltf_json(text, what, data, fs::path(path).parent_path());
   } else if (ext == ".gltf") {
     in.seekg(0);
-    check_gltf_json(std::string(std::istreambuf_iterator<char>(in), {}), what);
+    check_gltf_json(std::string(std::istreambuf_iterator<char>(in), {}), what, std::nullopt, fs::path(path).parent_path());
   }
   if (ext == ".fbx" || std::string_view(head, static_cast<std::size_t>(got)).find("; FBX") != std::string_view::npos) {
     if (std::string_view(head, static_cast<std::size_t>(got)).rfind("Kaydara", 0) != 0) check_fbx_text_connections(path, what);

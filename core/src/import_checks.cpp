@@ -146,10 +146,11 @@ std::optional<std::string> base64_decode(std::string_view text) {
 // beside the document. Nothing where it cannot be had; assimp then refuses the file itself.
 std::optional<std::string> gltf_buffer(const nlohmann::json& doc, std::size_t index, const std::optional<std::string>& bin,
                                        const fs::path& folder) {
-  if (!doc.contains("buffers") || !doc["buffers"].is_array() || index >= doc["buffers"].size()) return std::nullopt;
+  // assimp takes a glb's BIN chunk for buffer 0 even where the document lists no such buffer.
+  if (!doc.contains("buffers") || !doc["buffers"].is_array() || index >= doc["buffers"].size() ||
+      !doc["buffers"][index].is_object() || !doc["buffers"][index].contains("uri"))
+    return index == 0 ? bin : std::nullopt;
   const nlohmann::json& buffer = doc["buffers"][index];
-  if (!buffer.is_object()) return std::nullopt;
-  if (!buffer.contains("uri")) return index == 0 ? bin : std::nullopt;
   if (!buffer["uri"].is_string()) return std::nullopt;
   const std::string uri = buffer["uri"].get<std::string>();
   if (uri.rfind("data:", 0) == 0) {
@@ -686,6 +687,7 @@ void check_collada_accessors(std::string_view text, const std::string& what) {
   for (const char* type : {"float_array", "int_array", "bool_array", "Name_array", "IDREF_array", "SIDREF_array"})
     for (std::string_view tag : xml_start_tags(text, type))
       if (const auto id = xml_attribute(tag, "id")) kept[*id] = xml_count(xml_attribute(tag, "count"), 0);
+  std::size_t close = 0;
   for (std::string_view tag : xml_start_tags(text, "accessor")) {
     const std::optional<std::string> source = xml_attribute(tag, "source");
     if (!source) continue;
@@ -696,13 +698,17 @@ void check_collada_accessors(std::string_view text, const std::string& what) {
     const std::uint64_t stride = xml_count(xml_attribute(tag, "stride"), 1);
     const std::uint64_t offset = xml_count(xml_attribute(tag, "offset"), 0);
     const std::size_t at = static_cast<std::size_t>(tag.data() - text.data());
-    const std::size_t end = text.find("</accessor>", at);
     const bool empty = tag.size() >= 2 && tag[tag.size() - 2] == '/';
-    const std::string_view inside = empty ? std::string_view() : text.substr(at, end == std::string_view::npos ? text.npos : end - at);
+    // The tags come in order, so the next closing tag is searched for once, not once a tag.
+    if (close != std::string_view::npos && close < at) close = text.find("</accessor>", at);
+    const std::size_t end = empty ? at : close;
+    // An accessor never closed is not XML, which assimp refuses.
+    const std::string_view inside = end == std::string_view::npos ? std::string_view() : text.substr(at, end - at);
     const std::uint64_t params = xml_start_tags(inside, "param").size();
-    const std::uint64_t need = offset + (count - 1) * stride + std::max(stride, params);
-    if (need > array->second)
-      throw InputError(what + ": its Collada accessor of '" + *source + "' reads " + std::to_string(need) +
+    // In a long double: counts and strides up to 2^40 cannot overflow it.
+    const long double need = static_cast<long double>(offset) + static_cast<long double>(count - 1) * stride + std::max(stride, params);
+    if (need > static_cast<long double>(array->second))
+      throw InputError(what + ": its Collada accessor of '" + *source + "' reads " + std::to_string(std::uint64_t(std::min(need, 1e19L))) +
                        " values, but the array holds " + std::to_string(array->second) +
                        (array->second == 0 ? " (has it a count attribute?)" : "") + "; export the file again");
   }

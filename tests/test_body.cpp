@@ -464,6 +464,17 @@ TEST(BodyImportErrors, APlyDeclaringMoreThanItHoldsIsRefusedNotAllocated) {
   bad_element.replace(bad_element.find("element face 1"), 14, "element face\xe7" "1");
   msg = input_error([&] { Body::load(tmp_file("bad_element.ply", bad_element)); });
   EXPECT_NE(msg.find("its PLY header line 7 ('element face?1') is not one PLY defines"), std::string::npos) << msg;
+  // A second format line, or an element without properties (assimp then freed what it had not
+  // allocated; found by fuzz_body).
+  std::string two_formats = head + "1" + tail;
+  two_formats.insert(two_formats.find("element"), "format binary_little_endian 1.0\n");
+  msg = input_error([&] { Body::load(tmp_file("two_formats.ply", two_formats)); });
+  EXPECT_NE(msg.find("its PLY header line 3 ('format binary_little_endian 1.0') is not one PLY defines"), std::string::npos)
+      << msg;
+  std::string bare = head + "1" + tail;
+  bare.insert(bare.find("element vertex"), "element bare 2\n");
+  msg = input_error([&] { Body::load(tmp_file("bare.ply", bare)); });
+  EXPECT_NE(msg.find("its PLY element bare has no properties"), std::string::npos) << msg;
   // The same file holding what it declares is a body, and so is one with a header line PLY does not
   // define (Blender 2.47 wrote them; assimp passes over them).
   EXPECT_EQ(Body::load(tmp_file("one_face.ply", head + "1" + tail)).triangles().size(), 1u);

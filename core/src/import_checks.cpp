@@ -439,7 +439,8 @@ std::size_t ply_type_size(const std::string& type) {
 
 // A PLY file read as assimp 5.2 reads it, and refused where assimp would not cope. Its PLY reader
 // reads past the end of its buffers on a malformed element or property line (a heap overrun that
-// later crashed the importer), allocates what element counts and list lengths declare before
+// later crashed the importer), and frees what it never allocated after a header of two format lines
+// and an element without properties, allocates what element counts and list lengths declare before
 // reading them, and seeks past the file's end once for each element the file lacks (a 200-byte
 // file declaring 30 million faces took 4.8 GB and over a minute). What it copes with stays
 // readable: header lines PLY does not define (Blender 2.47 wrote one) are skipped, and an ASCII
@@ -485,10 +486,17 @@ class PlyChecker {
       };
       if (w.empty()) continue;
       if (w[0] == "format") {
-        if (w.size() != 3 || (w[1] != "ascii" && w[1] != "binary_little_endian" && w[1] != "binary_big_endian")) bad();
+        if (w.size() != 3 || (w[1] != "ascii" && w[1] != "binary_little_endian" && w[1] != "binary_big_endian") ||
+            w[2] != "1.0" || !format_.empty() || !elements_.empty())
+          bad();
         format_ = w[1];
       } else if (w[0] == "element") {
         if (w.size() != 3 || w[2].size() > 10 || w[2].find_first_not_of("0123456789") != std::string::npos) bad();
+        // Each element once, and each with its properties: assimp takes the first of a name.
+        for (const Element& e : elements_)
+          if (e.name == w[1]) bad();
+        if (!elements_.empty() && elements_.back().properties.empty())
+          fail("its PLY element " + elements_.back().name + " has no properties");
         elements_.push_back({w[1], std::stoull(w[2]), {}});
       } else if (w[0] == "property") {
         if (elements_.empty()) bad();
@@ -499,6 +507,8 @@ class PlyChecker {
       }
     }
     if (format_.empty()) fail("its PLY header has no format line");
+    if (!elements_.empty() && elements_.back().properties.empty())
+      fail("its PLY element " + elements_.back().name + " has no properties");
     // An element of no properties takes no bytes; assimp still makes each of its elements.
     const std::uint64_t room = bytes_.size() - data_;
     for (const Element& e : elements_)

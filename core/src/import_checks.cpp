@@ -619,33 +619,6 @@ bool collada_magic(const std::string& path) {
   return lowercase(head).find("<collada") != std::string::npos;
 }
 
-// assimp 5.2 reads a Collada index list (<p>, and <h>, <v>, <vcount>) number by number until its
-// end, and a character that is neither a digit, a sign nor a space stops it from moving on: it
-// appends zeros until memory runs out (a stray letter in a 1 KB file took 12 GB and 36 s).
-void check_collada_index_lists(const std::string& text, const std::string& what) {
-  for (const char* name : {"p", "h", "v", "vcount"}) {
-    const std::string open = std::string("<") + name;
-    for (std::size_t at = text.find(open); at != std::string::npos; at = text.find(open, at + 1)) {
-      const std::size_t after = at + open.size();
-      if (after >= text.size()) break;
-      const char c = text[after];
-      if (c != '>' && c != ' ' && c != '\t' && c != '\r' && c != '\n') continue;  // another element
-      const std::size_t start = text.find('>', after);
-      if (start == std::string::npos) break;
-      if (text[start - 1] == '/') continue;  // empty: <p/>
-      for (std::size_t i = start + 1; i < text.size() && text[i] != '<'; ++i) {
-        const unsigned char ch = static_cast<unsigned char>(text[i]);
-        if (std::isdigit(ch) || ch == ' ' || ch == '\t' || ch == '\r' || ch == '\n' || ch == '+' || ch == '-') continue;
-        std::ostringstream shown;
-        if (std::isprint(ch)) shown << "'" << text[i] << "'";
-        else shown << "the byte 0x" << std::hex << int(ch);
-        throw InputError(what + ": its Collada <" + name + "> list holds " + shown.str() + " at byte " + std::to_string(i) +
-                         ", where only whole numbers may be (assimp would read it without end); export the file again");
-      }
-    }
-  }
-}
-
 // The value of attribute `name` in the start tag `tag` (its text from '<' to '>'), if it has one.
 std::optional<std::string> xml_attribute(std::string_view tag, const std::string& name) {
   for (std::size_t at = tag.find(name + "="); at != std::string_view::npos; at = tag.find(name + "=", at + 1)) {
@@ -676,16 +649,42 @@ std::uint64_t xml_count(const std::optional<std::string>& value, std::uint64_t a
 std::vector<std::string_view> xml_start_tags(std::string_view text, const std::string& name) {
   std::vector<std::string_view> tags;
   const std::string open = "<" + name;
+  std::size_t close = 0;
   for (std::size_t at = text.find(open); at != std::string_view::npos; at = text.find(open, at + 1)) {
     const std::size_t after = at + open.size();
     if (after >= text.size()) break;
     const char c = text[after];
     if (c != '>' && c != '/' && !std::isspace(static_cast<unsigned char>(c))) continue;  // another element
-    const std::size_t close = text.find('>', after);
+    // The tags come in order: the '>' found for one serves those before it, so no text is searched twice.
+    if (close < after) close = text.find('>', after);
     if (close == std::string_view::npos) break;
     tags.push_back(text.substr(at, close - at + 1));
   }
   return tags;
+}
+
+// assimp 5.2 reads a Collada index list (<p>, and <h>, <v>, <vcount>) number by number until its
+// end, and a character that is neither a digit, a sign nor a space stops it from moving on: it
+// appends zeros until memory runs out (a stray letter in a 1 KB file took 12 GB and 36 s).
+void check_collada_index_lists(const std::string& text, const std::string& what) {
+  for (const char* name : {"p", "h", "v", "vcount"}) {
+    std::size_t last = std::string::npos;
+    for (std::string_view tag : xml_start_tags(text, name)) {
+      if (tag.size() >= 2 && tag[tag.size() - 2] == '/') continue;  // empty: <p/>
+      const std::size_t start = static_cast<std::size_t>(tag.data() - text.data()) + tag.size();
+      if (start == last) continue;  // tags that share one '>' (not XML) share one list
+      last = start;
+      for (std::size_t i = start; i < text.size() && text[i] != '<'; ++i) {
+        const unsigned char ch = static_cast<unsigned char>(text[i]);
+        if (std::isdigit(ch) || ch == ' ' || ch == '\t' || ch == '\r' || ch == '\n' || ch == '+' || ch == '-') continue;
+        std::ostringstream shown;
+        if (std::isprint(ch)) shown << "'" << text[i] << "'";
+        else shown << "the byte 0x" << std::hex << int(ch);
+        throw InputError(what + ": its Collada <" + name + "> list holds " + shown.str() + " at byte " + std::to_string(i) +
+                         ", where only whole numbers may be (assimp would read it without end); export the file again");
+      }
+    }
+  }
 }
 
 // assimp 5.2 reads an accessor's values from its source array without checking that the array
@@ -698,7 +697,9 @@ void check_collada_accessors(std::string_view text, const std::string& what) {
     for (std::string_view tag : xml_start_tags(text, type))
       if (const auto id = xml_attribute(tag, "id")) kept[*id] = xml_count(xml_attribute(tag, "count"), 0);
   std::size_t close = 0;
-  for (std::string_view tag : xml_start_tags(text, "accessor")) {
+  const std::vector<std::string_view> accessors = xml_start_tags(text, "accessor");
+  for (std::size_t k = 0; k < accessors.size(); ++k) {
+    const std::string_view tag = accessors[k];
     const std::optional<std::string> source = xml_attribute(tag, "source");
     if (!source) continue;
     const auto array = kept.find(source->substr(source->rfind('#', 0) == 0 ? 1 : 0));
@@ -711,9 +712,11 @@ void check_collada_accessors(std::string_view text, const std::string& what) {
     const bool empty = tag.size() >= 2 && tag[tag.size() - 2] == '/';
     // The tags come in order, so the next closing tag is searched for once, not once a tag.
     if (close != std::string_view::npos && close < at) close = text.find("</accessor>", at);
-    const std::size_t end = empty ? at : close;
-    // An accessor never closed is not XML, which assimp refuses.
-    const std::string_view inside = end == std::string_view::npos ? std::string_view() : text.substr(at, end - at);
+    // Its <param>s lie before its closing tag and the next accessor, so no text is read twice. An
+    // accessor never closed is not XML, which assimp refuses.
+    const std::size_t next = k + 1 < accessors.size() ? static_cast<std::size_t>(accessors[k + 1].data() - text.data()) : text.size();
+    const std::size_t end = empty || close == std::string_view::npos ? at : std::min(close, next);
+    const std::string_view inside = text.substr(at, end - at);
     const std::uint64_t params = xml_start_tags(inside, "param").size();
     // In a long double: counts and strides up to 2^40 cannot overflow it.
     const long double need = static_cast<long double>(offset) + static_cast<long double>(count - 1) * stride + std::max(stride, params);

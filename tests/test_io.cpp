@@ -288,6 +288,10 @@ TEST(GarmentFileErrors, AFaceThatNamesAVertexTheFileDoesNotHaveIsRefused) {
       {"f -1 -2 -4", "vertex -4 (counted back), but only 3 come before it"},
       {"f 1/5 2/5 3/5", "texture coordinate 5, but the file has 0"},
       {"f 0 1 2", "vertex 0 (OBJ counts from 1)"},
+      // Out of range counted back: strtoll's LLONG_MIN, which was negated (found by fuzz_garment_obj).
+      {"f 1 2 -99999999999999999999", "(counted back), but only 3 come before it"},
+      // A corner of another shape, which assimp read past its line (found by fuzz_body).
+      {"f ////////4444444444444 1 2", "has the corner '////////4444444444444', which is not v, v/vt, v//vn or v/vt/vn"},
   };
   for (const auto& [face, says] : cases) {
     SCOPED_TRACE(face);
@@ -302,6 +306,13 @@ TEST(GarmentFileErrors, AFaceThatNamesAVertexTheFileDoesNotHaveIsRefused) {
   const std::string path = tmp_path("good_index.obj");
   std::ofstream(path) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf -3/-1 -2/-1 -1/-1\n";
   EXPECT_EQ(import_garment(path).mesh().number_of_faces(), 1u);
+  // Every shape of corner OBJ has, and a slash ending one, is read.
+  for (const char* face : {"f 1 2 3", "f 1/1 2/1 3/1", "f 1//1 2//1 3//1", "f 1/1/1 2/1/1 3/1/1", "f 1/ 2/ 3/"}) {
+    SCOPED_TRACE(face);
+    const std::string shapes = tmp_path("corner_shapes.obj");
+    std::ofstream(shapes) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n" << face << "\n";
+    EXPECT_EQ(import_garment(shapes).mesh().number_of_faces(), 1u);
+  }
 }
 
 TEST(GarmentFileErrors, AnEmbeddedTextureDeclaringAHugeImageIsRefused) {

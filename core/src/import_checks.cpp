@@ -67,30 +67,41 @@ void check_obj_indices(const std::string& path, const std::string& what) {
         continue;
       }
       if (pass == 0 || (key != "f" && key != "l" && key != "p") || end == std::string::npos) continue;
-      // Each corner is v, v/vt, v//vn or v/vt/vn; what is not a number is left to assimp.
-      const char* c = line.c_str() + end;
-      while (*c) {
-        while (*c == ' ' || *c == '\t' || *c == '\r') ++c;
-        for (int component = 0; component < 3 && *c && *c != ' ' && *c != '\t' && *c != '\r'; ++component) {
-          char* after = const_cast<char*>(c);
-          errno = 0;
-          const bool numeric = *c == '-' || *c == '+' || (*c >= '0' && *c <= '9');
-          const long long i = numeric ? std::strtoll(c, &after, 10) : 0;
-          if (after != c) {
-            if (i == 0) fail(number, line, "refers to " + std::string(kinds[component]) + " 0 (OBJ counts from 1)");
-            if (i > 0 && (i > total[component] || errno == ERANGE))
-              fail(number, line, "refers to " + std::string(kinds[component]) + " " + std::to_string(i) +
-                                     ", but the file has " + std::to_string(total[component]));
-            if (i < 0 && (-i > so_far[component] || errno == ERANGE))
-              fail(number, line, "refers to " + std::string(kinds[component]) + " " + std::to_string(i) +
-                                     " (counted back), but only " + std::to_string(so_far[component]) +
-                                     " come before it");
-            c = after;
+      // Each corner is v, v/vt, v//vn or v/vt/vn (a slash may end it); assimp reads other shapes,
+      // such as '////////4444', past the end of its line.
+      std::istringstream corners(line.substr(end));
+      for (std::string corner; corners >> corner;) {
+        if (corner[0] == '#') break;  // a comment ends the line
+        auto bad = [&] {
+          fail(number, line, "has the corner '" + corner.substr(0, 40) + "', which is not v, v/vt, v//vn or v/vt/vn");
+        };
+        std::size_t at = 0;
+        for (int component = 0; component < 3; ++component) {
+          if (component > 0) {
+            if (at == corner.size()) break;
+            if (corner[at] != '/') bad();
+            ++at;
+            if (at == corner.size()) break;
+            if (component == 1 && corner[at] == '/') continue;  // v//vn
           }
-          if (*c != '/') break;
-          ++c;
+          const char* from = corner.c_str() + at;
+          char* after = const_cast<char*>(from);
+          errno = 0;
+          const bool numeric = *from == '-' || *from == '+' || (*from >= '0' && *from <= '9');
+          const long long i = numeric ? std::strtoll(from, &after, 10) : 0;
+          if (after == from) bad();
+          if (i == 0) fail(number, line, "refers to " + std::string(kinds[component]) + " 0 (OBJ counts from 1)");
+          // Out of range first: strtoll then gives LLONG_MIN, which cannot be negated.
+          if (i > 0 && (errno == ERANGE || i > total[component]))
+            fail(number, line, "refers to " + std::string(kinds[component]) + " " + std::to_string(i) +
+                                   ", but the file has " + std::to_string(total[component]));
+          if (i < 0 && (errno == ERANGE || -i > so_far[component]))
+            fail(number, line, "refers to " + std::string(kinds[component]) + " " + std::to_string(i) +
+                                   " (counted back), but only " + std::to_string(so_far[component]) +
+                                   " come before it");
+          at = static_cast<std::size_t>(after - corner.c_str());
         }
-        while (*c && *c != ' ' && *c != '\t' && *c != '\r') ++c;
+        if (at != corner.size()) bad();
       }
     }
     std::copy(so_far, so_far + 3, total);

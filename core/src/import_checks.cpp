@@ -176,8 +176,15 @@ std::optional<std::string> gltf_buffer(const nlohmann::json& doc, std::size_t in
 // assimp 5.2 builds a line strip's, line loop's or triangle fan's faces from the face before, and
 // leaves a face empty where an index names no vertex: the next one then reads through a null
 // pointer (found by fuzz_body). So every index a primitive holds must name one of its vertices.
+// Read once each, and each index list checked once against a vertex count, however many
+// primitives share them.
+struct GltfBuffers {
+  std::map<std::uint64_t, std::optional<std::string>> bytes;
+  std::set<std::pair<std::uint64_t, std::uint64_t>> checked;  // (indices accessor, vertices)
+};
+
 void check_gltf_indices(const nlohmann::json& doc, const nlohmann::json& primitive, const std::optional<std::string>& bin,
-                        const fs::path& folder, const std::string& what) {
+                        const fs::path& folder, GltfBuffers& buffers, const std::string& what) {
   const nlohmann::json& accessors = doc["accessors"];  // checked before: the accessors exist
   const nlohmann::json& indices = accessors[primitive["indices"].get<std::size_t>()];
   const nlohmann::json& positions = accessors[primitive["attributes"]["POSITION"].get<std::size_t>()];
@@ -195,7 +202,9 @@ void check_gltf_indices(const nlohmann::json& doc, const nlohmann::json& primiti
   if (!view.is_object()) return;
   const auto buffer_index = number(view, "buffer", ~std::uint64_t(0)), view_offset = number(view, "byteOffset", 0);
   if (!buffer_index || !view_offset) return;
-  const std::optional<std::string> buffer = gltf_buffer(doc, *buffer_index, bin, folder);
+  if (!buffers.checked.insert({primitive["indices"].get<std::uint64_t>(), *vertices}).second) return;
+  if (!buffers.bytes.count(*buffer_index)) buffers.bytes[*buffer_index] = gltf_buffer(doc, *buffer_index, bin, folder);
+  const std::optional<std::string>& buffer = buffers.bytes[*buffer_index];
   const std::uint64_t size = indices["componentType"] == 5121 ? 1 : indices["componentType"] == 5123 ? 2 : 4;
   if (!buffer || *count > buffer->size() || *view_offset + *offset + *count * size > buffer->size()) return;
   const auto* bytes = reinterpret_cast<const unsigned char*>(buffer->data() + *view_offset + *offset);
@@ -213,6 +222,7 @@ void check_gltf_json(const std::string& text, const std::string& what, const std
   const nlohmann::json doc = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (doc.is_discarded()) throw InputError(what + ": its glTF JSON is not valid JSON; export the file again");
   if (!doc.is_object()) return;
+  GltfBuffers buffers;
   // assimp 5.2 dereferences a null array on a line primitive with indices but no positions.
   if (doc.contains("meshes") && doc["meshes"].is_array()) {
     const nlohmann::json& meshes = doc["meshes"];
@@ -231,7 +241,7 @@ void check_gltf_json(const std::string& text, const std::string& what, const std
         if (p.contains("indices")) {
           check_gltf_accessor(doc, p["indices"], primitive + "'s indices");
           check_gltf_accessor(doc, p["attributes"]["POSITION"], primitive + "'s attribute POSITION");
-          check_gltf_indices(doc, p, bin, folder, primitive);
+          check_gltf_indices(doc, p, bin, folder, buffers, primitive);
         }
       }
     }

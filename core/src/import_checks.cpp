@@ -772,18 +772,23 @@ void check_zipped_collada(const std::string& path, const std::string& what) {
     if (unzGetCurrentFileInfo64(zip.get(), &info, name, sizeof name, nullptr, 0, nullptr, 0) != UNZ_OK ||
         unzOpenCurrentFile(zip.get()) != UNZ_OK)
       return;  // assimp's to refuse
-    // Read in pieces: a zip's sizes are its own word, and assimp allocates what the entry declares.
+    // Read in pieces: a zip's sizes are its own word. Only Collada documents are read whole (by
+    // name, or by "<collada" in their first 200 bytes, as assimp finds them).
     std::string text;
     char piece[1 << 16];
     int got = 0;
+    bool collada = lower_extension(name) == ".dae";
     constexpr std::size_t most = std::size_t(512) << 20;
-    while ((got = unzReadCurrentFile(zip.get(), piece, sizeof piece)) > 0 && text.size() <= most)
+    while ((got = unzReadCurrentFile(zip.get(), piece, sizeof piece)) > 0 && text.size() <= most) {
       text.append(piece, static_cast<std::size_t>(got));
+      collada = collada || lowercase(text.substr(0, 200)).find("<collada") != std::string::npos;
+      if (!collada && text.size() >= 200) break;
+    }
     unzCloseCurrentFile(zip.get());
+    if (!collada) continue;
     if (text.size() > most)
       throw InputError(what + ": its " + name + " unpacks to over 512 MiB, more than a body needs; export it again");
-    if (lower_extension(name) == ".dae" || lowercase(text.substr(0, 200)).find("<collada") != std::string::npos)
-      check_collada(std::move(text), what + " (its " + name + ")");
+    check_collada(std::move(text), what + " (its " + name + ")");
   }
 }
 

@@ -62,11 +62,14 @@ void check_obj_indices(const std::string& path, const std::string& what) {
       if (at == std::string::npos) continue;
       const std::size_t end = line.find_first_of(" \t\r", at);
       const std::string key = line.substr(at, end == std::string::npos ? std::string::npos : end - at);
-      if (key == "v" || key == "vt" || key == "vn") {
-        ++so_far[key == "v" ? 0 : key == "vt" ? 1 : 2];
+      // As assimp tells lines apart: by their first characters, not their whole first word ("vtx"
+      // is a texture coordinate, "f/" a face).
+      const bool texture = key.rfind("vt", 0) == 0, normal = key.rfind("vn", 0) == 0;
+      if (key == "v" || texture || normal) {
+        ++so_far[texture ? 1 : normal ? 2 : 0];
         continue;
       }
-      if (pass == 0 || (key != "f" && key != "l" && key != "p") || end == std::string::npos) continue;
+      if (pass == 0 || (key[0] != 'f' && key[0] != 'l' && key[0] != 'p') || end == std::string::npos) continue;
       // Each corner is v, v/vt, v//vn or v/vt/vn (a slash may end it); assimp reads other shapes,
       // such as '////////4444', past the end of its line.
       std::istringstream corners(line.substr(end));

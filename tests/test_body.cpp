@@ -590,6 +590,8 @@ TEST(BodyImportErrors, AColladaAccessorReadingPastItsArrayIsRefused) {
   for (const auto& [from, to, reads, holds] :
        {std::tuple<std::string, std::string, int, int>{array, "cotun=\"12\">0 0 0 100", 12, 0},
         {array, "count=\"11\">0 0 0 100", 12, 11},
+        // A count that is no number, which assimp reads as 0 (found by fuzz_body).
+        {array, "count=\"sss12\">0 0 0 100", 12, 0},
         {accessor, "count=\"4\" stride=\"4\"", 16, 12},
         {accessor, "count=\"4\" stride=\"3\" offset=\"1\"", 13, 12}}) {
     std::string text = dae;
@@ -600,6 +602,10 @@ TEST(BodyImportErrors, AColladaAccessorReadingPastItsArrayIsRefused) {
               std::string::npos)
         << to << ": " << msg;
   }
+  // A count in hexadecimal is a number to assimp, and to Kiji.
+  std::string hex = dae;
+  hex.replace(hex.find(array), array.size(), "count=\"0xC\">0 0 0 100");
+  EXPECT_EQ(Body::load(tmp_file("hex_count.dae", hex)).triangles().size(), 4u);
 }
 
 TEST(BodyImportErrors, AGltfIndexNamingNoVertexIsRefused) {

@@ -656,17 +656,26 @@ std::optional<std::string> xml_attribute(std::string_view tag, const std::string
   return std::nullopt;
 }
 
-// An unsigned attribute as assimp's XML reader takes it: its leading digits, saturating; a value
-// that does not start with a digit (a sign included) as the largest, so that checks refuse it.
+// An unsigned attribute as assimp's XML reader (pugixml's as_uint) takes it: spaces, a sign, then
+// decimal digits or 0x and hex digits up to the first other character; nothing, or a value below
+// zero, is 0, and a value past 32 bits is the largest.
 std::uint64_t xml_count(const std::optional<std::string>& value, std::uint64_t absent) {
   if (!value) return absent;
+  const std::string& v = *value;
   std::size_t i = 0;
-  while (i < value->size() && std::isspace(static_cast<unsigned char>((*value)[i]))) ++i;
-  if (i == value->size() || !std::isdigit(static_cast<unsigned char>((*value)[i]))) return std::uint64_t(1) << 40;
+  while (i < v.size() && std::isspace(static_cast<unsigned char>(v[i]))) ++i;
+  const bool negative = i < v.size() && v[i] == '-';
+  if (i < v.size() && (v[i] == '+' || v[i] == '-')) ++i;
+  const bool hex = i + 1 < v.size() && v[i] == '0' && (v[i + 1] | ' ') == 'x';
+  if (hex) i += 2;
   std::uint64_t n = 0;
-  for (; i < value->size() && std::isdigit(static_cast<unsigned char>((*value)[i])); ++i)
-    n = std::min<std::uint64_t>(n * 10 + std::uint64_t((*value)[i] - '0'), std::uint64_t(1) << 40);
-  return n;
+  for (; i < v.size(); ++i) {
+    const int c = static_cast<unsigned char>(v[i]);
+    int digit = std::isdigit(c) ? c - '0' : hex && std::isxdigit(c) ? (c | ' ') - 'a' + 10 : -1;
+    if (digit < 0) break;
+    n = std::min<std::uint64_t>(n * (hex ? 16 : 10) + std::uint64_t(digit), 0xffffffffu);
+  }
+  return negative ? 0 : n;
 }
 
 // Every start tag `<name ...>` or `<name>` in the text, as views from '<' to '>'.
@@ -742,12 +751,12 @@ void check_collada_accessors(std::string_view text, const std::string& what) {
     const std::size_t end = empty || close == std::string_view::npos ? at : std::min(close, next);
     const std::string_view inside = text.substr(at, end - at);
     const std::uint64_t params = xml_start_tags(inside, "param").size();
-    // In a long double: counts and strides up to 2^40 cannot overflow it.
+    // In a long double: counts and strides of 32 bits cannot overflow it.
     const long double need = static_cast<long double>(offset) + static_cast<long double>(count - 1) * stride + std::max(stride, params);
     if (need > static_cast<long double>(array->second))
       throw InputError(what + ": its Collada accessor of '" + *source + "' reads " + std::to_string(std::uint64_t(std::min(need, 1e19L))) +
                        " values, but the array holds " + std::to_string(array->second) +
-                       (array->second == 0 ? " (has it a count attribute?)" : "") + "; export the file again");
+                       (array->second == 0 ? " (has it a count attribute, and is that a number?)" : "") + "; export the file again");
   }
 }
 

@@ -278,6 +278,19 @@ TEST(GarmentFileErrors, EmptyGarmentIsNotExported) {
   EXPECT_NE(input_error([&] { export_garment(g, tmp_path("nothing.glb")); }).find("no faces"), std::string::npos);
 }
 
+TEST(GarmentFileErrors, TrianglesThatDoNotMakeAValidSurfaceAreRefused) {
+  // A polygon that visits its corners twice, triangulated by assimp and welded by position: each
+  // triangle is accepted as it is added, yet the surface is not valid (found by fuzz_garment_obj,
+  // whose garment then failed Garment::is_valid).
+  const std::string path = tmp_path("revisiting.obj");
+  std::ofstream(path) << "v 0 0 0\nv 82 1 0\nv 0 1 0\nv 0 0 0\nv 1 1 01\nv  01 0 0\nv 1 1//1 2//1\nf -1 -2 -3\n"
+                         "vn 0 0 1\nf 1//1 -2//1 4//1 3// 3//1 4//1 2//1\nv 1 7%4 3\ng 5 4v 0 0 0\nv 1 0 0\n"
+                         "v 1 1 0.5\nf -1 -2 -3\n";
+  const std::string msg = input_error([&] { import_garment(path); });
+  EXPECT_NE(msg.find(path), std::string::npos) << msg;
+  EXPECT_NE(msg.find("its triangles do not make a valid surface"), std::string::npos) << msg;
+}
+
 TEST(GarmentFileErrors, AFaceThatNamesAVertexTheFileDoesNotHaveIsRefused) {
   // Three vertices, and a face that names a fourth (or, counted from the end, one before the first,
   // or a texture coordinate the file lacks): refused by Kiji itself, naming the line and the count,

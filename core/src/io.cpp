@@ -381,6 +381,14 @@ Garment import_garment(const std::string& path, const Material& material) {
   }
 
   Garment g(std::move(mesh), material);
+  // Faces added one by one can each be accepted and still leave a vertex where two sheets meet at a
+  // point (found by fuzz_garment_obj): the whole surface is checked once it is built.
+  try {
+    g.validate();
+  } catch (const Error& e) {
+    throw InputError("cannot import garment '" + path + "': its triangles do not make a valid surface (" + e.what() +
+                     "); repair the mesh");
+  }
   double length3 = 0, length_uv = 0;
   for (std::size_t t = 0; t < faces.size(); ++t) {
     const Mesh& m = g.mesh();

@@ -873,18 +873,16 @@ void check_before_assimp(const std::string& path, const std::string& what) {
     // without end).
     in.clear();
     in.seekg(0);
-    std::string start(64 * 1024, '\0');
-    in.read(start.data(), static_cast<std::streamsize>(start.size()));
-    start.resize(static_cast<std::size_t>(in.gcount()));
+    std::string bytes(std::istreambuf_iterator<char>(in), {});
+    const std::string_view start = std::string_view(bytes).substr(0, 64 * 1024);
     const std::size_t at = start.find("\nend_header");
     const std::size_t after = at == std::string::npos ? at : at + 11;
     const bool line_ends = after != std::string::npos && after < start.size() &&
                            (start[after] == '\n' || (start[after] == '\r' && after + 1 < start.size() && start[after + 1] == '\n'));
     if (!line_ends)
       throw InputError(what + ": its PLY header has no end_header line in its first 64 KiB; export the file again");
-    in.clear();
-    in.seekg(0);
-    PlyChecker(std::string(std::istreambuf_iterator<char>(in), {}), at, after + (start[after] == '\r' ? 2 : 1), what).check();
+    const std::size_t data = after + (start[after] == '\r' ? 2 : 1);
+    PlyChecker(std::move(bytes), at, data, what).check();
   }
 }
 

@@ -449,11 +449,12 @@ TEST(BodyImportErrors, APlyDeclaringMoreThanItHoldsIsRefusedNotAllocated) {
   std::string long_list = head + "1" + tail;
   long_list.replace(long_list.rfind("3 0 1 2"), 7, "300000000 0 1 2");
   msg = input_error([&] { Body::load(tmp_file("long_list.ply", long_list)); });
-  EXPECT_NE(msg.find("has '300000000' for the length of its list vertex_indices, but its line holds 3 values after it"),
+  EXPECT_NE(msg.find("its PLY face element 0 has 300000000 for the length of its list vertex_indices, but its line holds "
+                     "3 values after it"),
             std::string::npos)
       << msg;
   // Binary: each vertex is 12 bytes, so 3 cannot be in 20, whatever the file's name.
-  const std::string binary = tmp_file("short_vertices.dat", std::string("\x04ply\nformat binary_little_endian 1.0\n"
+  const std::string binary = tmp_file("short_vertices.dat", std::string("ply\nformat binary_little_endian 1.0\n"
                                                                         "element vertex 3\nproperty float x\n"
                                                                         "property float y\nproperty float z\nend_header\n") +
                                                                 std::string(20, '\0'));
@@ -482,6 +483,43 @@ TEST(BodyImportErrors, APlyDeclaringMoreThanItHoldsIsRefusedNotAllocated) {
   // assimp's own point cloud pond.0.ply is cut short by 69 bytes.
   msg = input_error([&] { Body::load(models + "/PLY/pond.0.ply"); });
   EXPECT_NE(msg.find("its PLY data ends inside vertex element 70048 of the 70051"), std::string::npos) << msg;
+}
+
+TEST(BodyImportErrors, APlyIsCheckedAsAssimpReadsItNotAsItLooks) {
+  // assimp's PLY reader ends a line at "\r", "\f" or NUL too, so a comment can hide an element line
+  // from a reader that splits at newlines; the count 6300942905 wraps to 2005975609, and assimp asked
+  // for 48 GB for them (found by CI's fuzz phase: fuzz_body ran out of memory under the PLY reader).
+  const std::string head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                           "property float z\nelement face 1\nproperty list uchar int vertex_indices\n";
+  const std::string data = "end_header\n0 0 0\n0 1 0\n1 0 0\n3 0 1 2\n";
+  const std::string hidden =
+      tmp_file("hidden.ply", head + "comment made here\relement material 6300942905\nproperty float opacity\n" + data);
+  std::string msg = input_error([&] { Body::load(hidden); });
+  EXPECT_NE(msg.find(hidden), std::string::npos) << msg;
+  EXPECT_NE(msg.find("its PLY header declares 2005975609 material elements, more than the 26 bytes after its header can "
+                     "hold"),
+            std::string::npos)
+      << msg;
+  // Its line buffer is never cleared: after a comment it reads on into what longer lines before
+  // left there, here an element of four billion faces, which it would allocate.
+  const std::string stale = tmp_file("stale.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                                                  "property float y\nproperty float z\n"
+                                                  "obj_info 123456element face 4000000000\nobj_info short\ncomment\n"
+                                                  "property list uchar int vertex_indices\n" + data);
+  msg = input_error([&] { Body::load(stale); });
+  EXPECT_NE(msg.find("its PLY header declares 4000000000 face elements"), std::string::npos) << msg;
+  // A list whose length is a signed byte of -1: assimp takes it for 4,294,967,295 values (32 GB).
+  std::string binary = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty uchar x\nproperty uchar y\n"
+                       "property uchar z\nelement face 1\nproperty list char int vertex_indices\nend_header\n";
+  binary += std::string("\0\0\0\0\1\0\1\0\0", 9) + "\xff" + std::string(2000, '\0');
+  msg = input_error([&] { Body::load(tmp_file("minus_one.ply", binary)); });
+  EXPECT_NE(msg.find("its PLY data has -1.000000 for the length of the list the vertex_indices of its face element 0"),
+            std::string::npos)
+      << msg;
+  // The same files without what hides in them are bodies.
+  EXPECT_EQ(Body::load(tmp_file("plain.ply", head + "comment made here\n" + data)).triangles().size(), 1u);
+  binary.replace(binary.size() - 2001, 13, std::string("\3\0\0\0\0\1\0\0\0\2\0\0\0", 13));
+  EXPECT_EQ(Body::load(tmp_file("three.ply", binary)).triangles().size(), 1u);
 }
 
 TEST(BodyImportErrors, AnOffFileWhoseFacesAssimpWouldReadPastIsRefused) {

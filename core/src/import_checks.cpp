@@ -461,24 +461,17 @@ std::size_t ply_type_size(const std::string& type) {
   return it == sizes.end() ? 0 : it->second;
 }
 
-// A PLY file read as assimp 5.2 reads it, and refused where assimp would not cope. Its PLY reader
-// reads past the end of its buffers on a malformed element or property line (a heap overrun that
-// later crashed the importer), and frees what it never allocated after a header of two format lines
-// and an element without properties, allocates what element counts and list lengths declare before
-// reading them, and seeks past the file's end once for each element the file lacks (a 200-byte
-// file declaring 30 million faces took 4.8 GB and over a minute). What it copes with stays
-// readable: header lines PLY does not define (Blender 2.47 wrote one) are skipped, and an ASCII
-// element's line may end before its last properties (assimp's own test model issue623.ply).
+// A PLY header's lines as the format defines them, one a line: each element and property line well
+// formed and of types PLY defines, one format line before the elements, each element once and with
+// properties, and no element count the rest of the file cannot hold. Header lines PLY does not define
+// (Blender 2.47 wrote one) are passed over, as assimp passes over them. What assimp then does with
+// the file is followed by check_ply_as_assimp_reads.
 class PlyChecker {
  public:
-  PlyChecker(std::string bytes, std::size_t header_end, std::size_t data_start, std::string what)
-      : bytes_(std::move(bytes)), header_end_(header_end), data_(data_start), what_(std::move(what)) {}
+  PlyChecker(const std::string& bytes, std::size_t header_end, std::size_t data_start, std::string what)
+      : bytes_(bytes), header_end_(header_end), data_(data_start), what_(std::move(what)) {}
 
-  void check() {
-    read_header();
-    if (format_ == "ascii") check_ascii();
-    else check_binary();
-  }
+  void check() { read_header(); }
 
  private:
   struct Property {
@@ -541,93 +534,7 @@ class PlyChecker {
              std::to_string(room) + " bytes after its header can hold");
   }
 
-  [[noreturn]] void cut(const Element& e, std::uint64_t i) const {
-    fail("its PLY data ends inside " + e.name + " element " + std::to_string(i) + " of the " + std::to_string(e.count) +
-         " its header declares: the file is cut short or its header is wrong");
-  }
-
-  // One line an element, as assimp reads them; blank lines are passed over.
-  void check_ascii() {
-    std::size_t at = data_;
-    auto next_line = [&]() -> std::optional<std::string_view> {
-      while (at < bytes_.size()) {
-        std::size_t end = bytes_.find('\n', at);
-        if (end == std::string::npos) end = bytes_.size();
-        const std::string_view line = std::string_view(bytes_).substr(at, end - at);
-        at = end + 1;
-        if (line.find_first_not_of(" \t\r\f\v") != std::string_view::npos) return line;
-      }
-      return std::nullopt;
-    };
-    auto number = [](std::string_view t) {
-      const std::string text(t);
-      char* end = nullptr;
-      std::strtod(text.c_str(), &end);
-      return end == text.c_str() + text.size();
-    };
-    for (const Element& e : elements_) {
-      if (e.properties.empty()) continue;
-      for (std::uint64_t i = 0; i < e.count; ++i) {
-        const std::optional<std::string_view> line = next_line();
-        if (!line) cut(e, i);
-        std::vector<std::string_view> tokens;
-        for (std::size_t k = 0; k < line->size();) {
-          while (k < line->size() && std::isspace(static_cast<unsigned char>((*line)[k]))) ++k;
-          const std::size_t from = k;
-          while (k < line->size() && !std::isspace(static_cast<unsigned char>((*line)[k]))) ++k;
-          if (k > from) tokens.push_back(line->substr(from, k - from));
-        }
-        std::size_t t = 0;
-        auto value = [&](const std::string& name) {
-          if (!number(tokens[t]))
-            fail("its PLY " + e.name + " element " + std::to_string(i) + " has '" + std::string(tokens[t].substr(0, 20)) +
-                 "' for its " + name + ", which is not a number");
-          ++t;
-        };
-        for (const Property& p : e.properties) {
-          if (t == tokens.size()) break;  // the line ends early: assimp keeps the rest at zero
-          if (p.count_type.empty()) {
-            value(p.name);
-            continue;
-          }
-          const std::string_view n = tokens[t++];
-          if (n.size() > 9 || n.find_first_not_of("0123456789") != std::string_view::npos ||
-              std::stoull(std::string(n)) > tokens.size() - t)
-            fail("its PLY " + e.name + " element " + std::to_string(i) + " has '" + std::string(n.substr(0, 20)) +
-                 "' for the length of its list " + p.name + ", but its line holds " + std::to_string(tokens.size() - t) +
-                 " values after it");
-          for (std::uint64_t k = std::stoull(std::string(n)); k > 0; --k) value(p.name);
-        }
-      }
-    }
-  }
-
-  void check_binary() {
-    const bool big = format_ == "binary_big_endian";
-    std::uint64_t at = data_;
-    for (const Element& e : elements_) {
-      if (e.properties.empty()) continue;
-      for (std::uint64_t i = 0; i < e.count; ++i)
-        for (const Property& p : e.properties) {
-          std::uint64_t values = 1;
-          if (!p.count_type.empty()) {
-            const std::size_t n = ply_type_size(p.count_type);
-            if (at + n > bytes_.size()) cut(e, i);
-            std::uint64_t v = 0;
-            for (std::size_t k = 0; k < n; ++k)
-              v |= std::uint64_t(static_cast<unsigned char>(bytes_[at + (big ? n - 1 - k : k)])) << (8 * k);
-            // A signed count below zero reads as a huge one, and is cut short below.
-            values = v;
-            at += n;
-          }
-          const std::uint64_t size = values * ply_type_size(p.type);
-          if (values > bytes_.size() || at + size > bytes_.size()) cut(e, i);
-          at += size;
-        }
-    }
-  }
-
-  std::string bytes_;
+  const std::string& bytes_;
   std::size_t header_end_, data_;
   std::string what_;
   std::string format_;
@@ -882,7 +789,8 @@ void check_before_assimp(const std::string& path, const std::string& what) {
     if (!line_ends)
       throw InputError(what + ": its PLY header has no end_header line in its first 64 KiB; export the file again");
     const std::size_t data = after + (start[after] == '\r' ? 2 : 1);
-    PlyChecker(std::move(bytes), at, data, what).check();
+    PlyChecker(bytes, at, data, what).check();
+    check_ply_as_assimp_reads(bytes, what);
   }
 }
 

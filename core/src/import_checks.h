@@ -19,7 +19,8 @@ namespace kiji::detail {
 // component type glTF does not define (assimp dereferences a null array), or a glb chunk longer than
 // the file (assimp allocates and fills it first); a Collada file (.dae, or by its first bytes) whose
 // <p>, <h>, <v> or <vcount> list holds a character other than digits, signs and spaces (assimp
-// appends zeros until memory runs out); a PLY whose header never ends (assimp looks for its end for ever); an OFF file
+// appends zeros until memory runs out); a PLY whose header never ends (assimp looks for its end for ever),
+// or that assimp's PLY reader, followed step by step, would allocate past or read past (below); an OFF file
 // whose header declares more or fewer lines than it has, or whose face has 0 or over 9 corners or
 // names a vertex it lacks, or whose line is over 4 KiB (assimp allocates all the header declares
 // first, reads past its arrays after such faces, and copies a line into a 4 KiB buffer); a text FBX
@@ -29,6 +30,11 @@ namespace kiji::detail {
 // parser reads past the end of a broken file, and a file of an unknown extension may be tried as
 // OpenGEX). Any other file is left to assimp.
 void prepare_importer(Assimp::Importer& importer, const std::string& path, const std::string& what);
+
+// Follows assimp 5.2's PLY reader over a PLY file's bytes and throws InputError, starting with
+// `what`, before it would allocate what the file cannot hold (an element count or a list length
+// past the data), read past its own buffer, or run out of data.
+void check_ply_as_assimp_reads(const std::string& bytes, const std::string& what);
 
 // After importer.ReadFile(path, 0) gave a scene: refuses a face of no corners or one naming a vertex
 // its mesh lacks, sets each mesh's primitive types from its faces (an importer can claim polygons it

@@ -522,6 +522,24 @@ TEST(BodyImportErrors, APlyIsCheckedAsAssimpReadsItNotAsItLooks) {
   EXPECT_EQ(Body::load(tmp_file("three.ply", binary)).triangles().size(), 1u);
 }
 
+TEST(BodyImportErrors, APlyFaceWithMoreTextureCoordinatesThanCornersIsRefused) {
+  // assimp's PLY importer writes a face's six texture coordinates through its corners without
+  // looking how many it has: through a null pointer where it has none (a segmentation fault), past
+  // the corners where it has fewer than three (found by reading the importer).
+  const std::string head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                           "property float z\nelement face 1\n";
+  const std::string vertices = "end_header\n0 0 0\n0 1 0\n1 0 0\n";
+  std::string msg = input_error([&] {
+    Body::load(tmp_file("uv_only.ply", head + "property list uchar float texcoord\n" + vertices + "6 0 0 1 0 0 1\n"));
+  });
+  EXPECT_NE(msg.find("its PLY face element 0 has 6 texture coordinates for a face of 0 corners"), std::string::npos) << msg;
+  const std::string both = head + "property list uchar int vertex_indices\nproperty list uchar float texcoord\n" + vertices;
+  msg = input_error([&] { Body::load(tmp_file("uv_past.ply", both + "1 0 8 0 0 1 0 0 1 1 1\n")); });
+  EXPECT_NE(msg.find("its PLY face element 0 has 8 texture coordinates for a face of 1 corners"), std::string::npos) << msg;
+  // Six for a triangle is what such a file holds.
+  EXPECT_EQ(Body::load(tmp_file("uv.ply", both + "3 0 1 2 6 0 0 1 0 0 1\n")).triangles().size(), 1u);
+}
+
 TEST(BodyImportErrors, AnOffFileWhoseFacesAssimpWouldReadPastIsRefused) {
   // Face lines of no corners make assimp 5.2's OFF reader count its faces below zero and read past
   // its arrays (found by fuzz_body: a segmentation fault inside Importer::ReadFile).

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -104,7 +105,7 @@ class PlyReading {
   struct Property {
     bool list = false;
     Type count = Type::invalid, type = Type::invalid;
-    std::string name;
+    std::string name, semantic;  // semantic: the name assimp knows it by, or empty
   };
   struct Element {
     Kind kind = Kind::other;
@@ -349,10 +350,12 @@ class PlyReading {
         "b",            "u",              "s",             "tx",             "texture_u",    "v",
         "t",            "ty",             "texture_v",     "x",              "y",            "z",
         "nx",           "ny",             "nz"};
-    bool known = false;
     for (const char* s : semantics)
-      if ((known = dom_token(b, s))) break;
-    if (!known) dom_skip_line(b);
+      if (dom_token(b, s)) {
+        p.semantic = s;
+        break;
+      }
+    if (p.semantic.empty()) dom_skip_line(b);
     dom_skip_spaces_and_line_end(b);
     return true;
   }
@@ -403,6 +406,11 @@ class PlyReading {
           for (const Element& before : elements_)
             if (before.kind == e.kind && before.name == e.name) fail("its PLY header declares its " + e.name + " elements twice");
         }
+        for (const Element& before : elements_)
+          if ((before.kind == Kind::face && e.kind == Kind::tristrips) ||
+              (before.kind == Kind::tristrips && e.kind == Kind::face))
+            fail("its PLY header declares both faces and triangle strips (assimp writes both into one array "
+                 "sized for the first)");
         elements_.push_back(std::move(e));
       } else if (dom_token(b, "end_header")) {
         break;
@@ -418,6 +426,26 @@ class PlyReading {
          " its header declares: the file is cut short or its header is wrong");
   }
 
+  // PLYImporter::LoadFace: a face's list of six to eight texture coordinates is written through its
+  // vertex list, two coordinates a corner, without looking at that list's length (or whether the
+  // face has one). `sizes` holds how many values each property of the instance has.
+  void check_face(const Element& e, std::uint32_t i, const std::vector<std::uint32_t>& sizes) const {
+    if (e.kind != Kind::face) return;
+    std::optional<std::size_t> corners, coords;
+    for (std::size_t a = 0; a < e.properties.size(); ++a) {
+      const Property& p = e.properties[a];
+      if (!p.list) continue;
+      if (p.semantic == "vertex_index" || p.semantic == "vertex_indices") corners = a;
+      if (p.semantic == "texcoord") coords = a;
+    }
+    if (!coords || sizes[*coords] / 3 != 2) return;
+    const std::uint32_t needed = (sizes[*coords] + 1) / 2;
+    const std::uint32_t have = corners ? sizes[*corners] : 0;
+    if (have < needed)
+      fail("its PLY face element " + std::to_string(i) + " has " + std::to_string(sizes[*coords]) +
+           " texture coordinates for a face of " + std::to_string(have) + " corners (assimp would read past them)");
+  }
+
   // ParseElementInstanceLists: one line an element; a list's values end at the line's end.
   void read_ascii(LineBuffer& b) {
     Line line = next_line(b);
@@ -430,8 +458,10 @@ class PlyReading {
           dom_skip_line(b);
         } else {
           std::size_t k = 0;
+          std::vector<std::uint32_t> sizes;
           for (const Property& p : e.properties) {
             const Where where{e, p, i};
+            sizes.push_back(1);  // a property the line lacks gets one default value
             if (!skip_spaces(b, k)) continue;
             if (!p.list) {
               value(b, k, p.type, where);
@@ -447,9 +477,11 @@ class PlyReading {
                 fail("its PLY " + e.name + " element " + std::to_string(i) + " has " + std::to_string(n) +
                      " for the length of its list " + p.name + ", but its line holds " + std::to_string(found) +
                      " values after it");
+              sizes.back() = n;
             }
             skip_spaces_and_line_end(b, k);
           }
+          check_face(e, i, sizes);
         }
         line = next_line(b);
       }
@@ -473,8 +505,10 @@ class PlyReading {
       }
     };
     std::uint64_t pos = at_byte;
+    std::vector<std::uint32_t> sizes;
     for (const Element& e : elements_)
-      for (std::uint32_t i = 0; i < e.count; ++i)
+      for (std::uint32_t i = 0; i < e.count; ++i) {
+        sizes.clear();
         for (const Property& p : e.properties) {
           std::uint64_t n = 1;
           if (p.list) {
@@ -503,7 +537,10 @@ class PlyReading {
           }
           if (n * size_of(p.type) > file_.size() - pos) cut(e, i);
           pos += n * size_of(p.type);
+          sizes.push_back(static_cast<std::uint32_t>(n));
         }
+        check_face(e, i, sizes);
+      }
   }
 
   const std::string& file_;

@@ -568,6 +568,54 @@ TEST(BodyImportErrors, AnOffFileWhoseFacesAssimpWouldReadPastIsRefused) {
   EXPECT_NE(input_error([&] { Body::load(wide); }).find("its line 3 is 5005 characters long"), std::string::npos);
 }
 
+TEST(BodyImportErrors, AnOffFileIsReadAfterItsByteOrderMarkAndCommentsAsAssimpReadsIt) {
+  // assimp drops a UTF-8 byte order mark, and ends a comment at a line break but not at a form
+  // feed; Kiji's OFF check read such a header as nothing and let the file through, and assimp then
+  // counted its faces below zero and read past them (a segmentation fault; found by reading the
+  // importer).
+  const std::string wraps = "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n0\n0\n3 0 1 2\n";
+  for (const auto& [name, before] : {std::pair<std::string, std::string>{"bom.off", "\xEF\xBB\xBF"}, {"ff.off", "#\f\n"}}) {
+    const std::string path = tmp_file(name, before + wraps);
+    const std::string msg = input_error([&] { Body::load(path); });
+    EXPECT_NE(msg.find("has 0 corners"), std::string::npos) << name << ": " << msg;
+  }
+  // A header declaring more than the file holds, behind the mark (assimp allocated 1.3 GB for it).
+  const std::string big = tmp_file("big.off", "\xEF\xBB\xBFOFF\n20000000 20000000 0\n");
+  EXPECT_NE(input_error([&] { Body::load(big); }).find("more lines than the file's"), std::string::npos);
+  // UTF-16 and UTF-32 text assimp misreads; a header read as nothing is refused, not passed.
+  const std::string utf16 = tmp_file("utf16.off", std::string("\xFE\xFF\0O\0F\0F\0\n", 10));
+  EXPECT_NE(input_error([&] { Body::load(utf16); }).find("it is UTF-16 or UTF-32 text"), std::string::npos);
+  // With the mark and a comment, a well-formed file is a body.
+  EXPECT_EQ(Body::load(tmp_file("good_bom.off", "\xEF\xBB\xBF# a triangle\nOFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"))
+                .triangles()
+                .size(),
+            1u);
+}
+
+TEST(BodyImportErrors, AnIntegerAssimpCannotReadPastIsRefused) {
+  // assimp's number reader stops at an integer of 20 digits (it overflows 64 bits) without moving
+  // on, and its warning copies the rest of the text: an ASCII STL reads that number again for each
+  // coordinate, copying the file each time (a 1 MB file took 44 s; found by reading the importer).
+  const std::string facet = "facet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\n";
+  std::string stl = "solid s\n" + facet + "endsolid s\n";
+  EXPECT_EQ(Body::load(tmp_file("fine.stl", stl)).triangles().size(), 1u);
+  stl.replace(stl.find("vertex 1 0 0"), 12, "vertex 99999999999999999999 0 0");
+  std::string msg = input_error([&] { Body::load(tmp_file("long.stl", stl)); });
+  EXPECT_NE(msg.find("its ASCII STL has an integer of 20 digits or more at byte"), std::string::npos) << msg;
+  // The fraction's digits are cut at 15 and never overflow: those are read.
+  stl = "solid s\n" + facet + "endsolid s\n";
+  stl.replace(stl.find("vertex 1 0 0"), 12, "vertex 1.000000000000000000001 0 0");
+  EXPECT_EQ(Body::load(tmp_file("fraction.stl", stl)).triangles().size(), 1u);
+  // A UTF-32 byte order mark: assimp reads past its buffer converting the file.
+  msg = input_error([&] { Body::load(tmp_file("utf32.stl", std::string("\xFE\xFF\0\0", 4) + "solid s\n" + facet)); });
+  EXPECT_NE(msg.find("UTF-32 byte order mark"), std::string::npos) << msg;
+  // A Collada float array is read value by value the same way.
+  std::string dae = kZupCentimetreDae;
+  dae.replace(dae.find(">0 0 0 100"), 10, ">0 0 0 123456789012345678901");
+  msg = input_error([&] { Body::load(tmp_file("long.dae", dae)); });
+  EXPECT_NE(msg.find("its Collada <float_array> has an integer of 20 digits or more"), std::string::npos) << msg;
+}
+
 TEST(BodyImport, OffFilesLoad) {
   const Body cube = Body::load(models + "/OFF/Cube.off");
   EXPECT_EQ(cube.vertices().size(), 8u);

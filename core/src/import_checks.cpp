@@ -264,10 +264,58 @@ void check_gltf_json(const std::string& text, const std::string& what, const std
 // assimp 5.2's OFF reader does not move on to the next face when it drops one of 0 or over 9
 // corners, but still counts it off the mesh's faces: enough of them wrap that count and it reads
 // past its arrays. It also allocates what the header declares before reading a line, and copies a
+// assimp's number reader (fast_atoreal_move) does not move past an integer part of 20 digits or
+// more (it overflows 64 bits), and the warning it logs copies all the text after it: a reader that
+// loops over values then reads the same number again and again, copying the rest of the file each
+// time (a 1 MB ASCII STL of such numbers took 44 s). Digits after a decimal point are cut at 15
+// and never overflow. The position of such a number in `text`, if it holds one.
+std::optional<std::size_t> long_integer(std::string_view text) {
+  for (std::size_t i = 0; i < text.size();) {
+    if (!std::isdigit(static_cast<unsigned char>(text[i]))) {
+      ++i;
+      continue;
+    }
+    std::size_t j = i;
+    while (j < text.size() && std::isdigit(static_cast<unsigned char>(text[j]))) ++j;
+    if (j - i >= 20 && (i == 0 || (text[i - 1] != '.' && text[i - 1] != ','))) return i;
+    i = j;
+  }
+  return std::nullopt;
+}
+
+// An STL file as assimp 5.2 reads it: after its text reader (a UTF-8 byte order mark dropped; a
+// UTF-32 one converted past the end of its buffer), binary where its 32-bit face count makes the
+// file's size, else ASCII from "solid".
+void check_stl(const std::string& bytes, const std::string& what) {
+  if (bytes.size() >= 8 && bytes.rfind(std::string("\xFE\xFF\0\0", 4), 0) == 0)
+    throw InputError(what + ": it starts with a UTF-32 byte order mark, which assimp reads past its buffer; "
+                     "save it as ASCII or binary STL");
+  std::string_view text = bytes;
+  if (bytes.size() >= 8 && bytes.rfind("\xEF\xBB\xBF", 0) == 0) text.remove_prefix(3);
+  if (text.size() >= 84) {
+    std::uint32_t faces = 0;
+    std::memcpy(&faces, text.data() + 80, sizeof faces);
+    if (std::uint32_t(faces * 50u + 84u) == bytes.size()) return;
+  }
+  const std::size_t start = text.find_first_not_of(" \t");
+  if (start == std::string_view::npos || text.compare(start, 5, "solid") != 0) return;  // assimp's to refuse
+  if (const auto at = long_integer(text))
+    throw InputError(what + ": its ASCII STL has an integer of 20 digits or more at byte " + std::to_string(*at) +
+                     " ('" + std::string(text.substr(*at, 24)) + "...'), which assimp cannot read past; export the "
+                     "file again");
+}
+
 // line into a 4 KiB buffer. The header and the faces are read here as that reader reads them.
 class OffReader {
  public:
   OffReader(std::string text, std::string what) : s_(std::move(text)), what_(std::move(what)) {
+    // assimp's text reader drops a UTF-8 byte order mark from a file of 8 bytes or more, and
+    // misreads UTF-16 and UTF-32 (it reads past its buffer converting the one, and keeps the bytes
+    // it converted the other from).
+    if (s_.size() >= 8 && s_.rfind("\xEF\xBB\xBF", 0) == 0) s_.erase(0, 3);
+    else if (s_.size() >= 8 && (s_.rfind("\xFE\xFF", 0) == 0 || s_.rfind("\xFF\xFE", 0) == 0 ||
+                                s_.rfind(std::string("\0\0\xFE\xFF", 4), 0) == 0))
+      fail("it is UTF-16 or UTF-32 text, which assimp's OFF reader misreads (save it as ASCII or UTF-8)");
     // assimp reads the lines as C strings: they end at the first NUL.
     s_.resize(std::min(s_.size(), s_.find('\0')));
   }
@@ -294,7 +342,10 @@ class OffReader {
     next_token();
     number();
     next_token();
-    if (vertices == 0 || faces == 0) return;  // assimp refuses these with a reason of its own
+    // assimp refuses these too; a header read as nothing here must not let a file through unread.
+    if (vertices == 0 || faces == 0)
+      fail("its OFF header declares " + std::to_string(vertices) + " vertices and " + std::to_string(faces) +
+           " faces (or Kiji cannot read it as assimp does)");
     // Every line but the last takes two bytes at least.
     const std::size_t room = (s_.size() - std::min(at_, s_.size())) / 2 + 1;
     if (std::size_t(vertices) + faces > room)
@@ -340,7 +391,8 @@ class OffReader {
   void next_token() {
     skip_spaces_and_line_ends();
     while (at_ < s_.size() && (s_[at_] == '#' || s_[at_] == '\n' || s_[at_] == '\r')) {
-      while (!line_end(at(at_))) ++at_;
+      // A comment ends as assimp's SkipLine ends it: not at a form feed.
+      while (at(at_) != '\r' && at(at_) != '\n' && at(at_) != '\0') ++at_;
       skip_spaces_and_line_ends();
     }
   }
@@ -380,6 +432,16 @@ class OffReader {
   long long line_number_ = 1;
   long long current_line_ = 1;
 };
+
+// assimp takes a file for STL by "solid" or "stl" in its first 200 bytes, whatever its name.
+bool stl_magic(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string head(200, '\0');
+  in.read(head.data(), static_cast<std::streamsize>(head.size()));
+  head.resize(static_cast<std::size_t>(in.gcount()));
+  head = lowercase(head);
+  return head.find("solid") != std::string::npos || head.find("stl") != std::string::npos;
+}
 
 // assimp takes a file for OFF by "off" in its first three bytes, whatever its name.
 bool off_magic(std::string_view head) { return lowercase(std::string(head.substr(0, 3))).find("off") != std::string::npos; }
@@ -677,6 +739,14 @@ void check_collada(std::string text, const std::string& what) {
   }
   check_collada_index_lists(text, what);
   check_collada_accessors(text, what);
+  // A float array is read value by value, `count` times, with assimp's number reader.
+  for (std::string_view tag : xml_start_tags(text, "float_array")) {
+    const std::size_t start = static_cast<std::size_t>(tag.data() - text.data()) + tag.size();
+    const std::size_t end = std::min(text.find('<', start), text.size());
+    if (const auto at = long_integer(std::string_view(text).substr(start, end - start)))
+      throw InputError(what + ": its Collada <float_array> has an integer of 20 digits or more at byte " +
+                       std::to_string(start + *at) + ", which assimp cannot read past; export the file again");
+  }
 }
 
 // A zipped Collada file (.zae) is any zip holding a .dae, whatever its name: assimp reads the
@@ -760,6 +830,11 @@ void check_before_assimp(const std::string& path, const std::string& what) {
   }
   if (ext == ".fbx" || std::string_view(head, static_cast<std::size_t>(got)).find("; FBX") != std::string_view::npos) {
     if (std::string_view(head, static_cast<std::size_t>(got)).rfind("Kaydara", 0) != 0) check_fbx_text_connections(path, what);
+  }
+  if (ext == ".stl" || stl_magic(path)) {
+    in.clear();
+    in.seekg(0);
+    check_stl(std::string(std::istreambuf_iterator<char>(in), {}), what);
   }
   if (ext == ".off" || off_magic(std::string_view(head, static_cast<std::size_t>(got)))) {
     in.clear();

@@ -416,10 +416,10 @@ TEST(GarmentFileErrors, AGlbNeitherGltfImporterRecognisesIsNotTriedAsEveryOtherF
     const std::string msg = input_error([&] { body ? (void)Body::load(path) : (void)import_garment(path); });
     EXPECT_NE(msg.find(path + "': assimp cannot read it as a .glb file (its content is not laid out as one)"), std::string::npos) << msg;
   }
-  // Nor is any other name tried as OpenGEX.
+  // Nor is any other name tried as OpenGEX: a name no importer claims is refused.
   const std::string other = tmp_path("not_gltf.dat");
   std::ofstream(other, std::ios::binary | std::ios::trunc) << bytes;
-  EXPECT_NE(input_error([&] { Body::load(other); }).find("No suitable reader"), std::string::npos);
+  EXPECT_NE(input_error([&] { Body::load(other); }).find("its extension '.dat' is not one assimp reads"), std::string::npos);
 }
 
 TEST(GarmentFileErrors, AGlbPrimitiveWithoutPositionsIsRefused) {
@@ -452,15 +452,15 @@ TEST(GarmentFileErrors, AGlbPrimitiveWhoseAccessorHasAnUndefinedTypeIsRefused) {
   ASSERT_NE(scalar, std::string::npos);
   ASSERT_NE(component, std::string::npos);
   for (const auto& [at, edit, expected] :
-       {std::tuple<std::size_t, std::string, std::string>{scalar, "\"SKALAR\"", "whose type \"SKALAR\" is not one of glTF's"},
-        {component + 16, "5124", "whose componentType 5124 is not one of glTF's"}}) {
+       {std::tuple<std::size_t, std::string, std::string>{scalar, "\"SKALAR\"", "'s type \"SKALAR\" is not one of glTF's"},
+        {component + 16, "5124", "'s componentType 5124 is not one of glTF's"}}) {
     std::string bytes = exported;
     bytes.replace(at, edit.size(), edit);
     if (mode != std::string::npos) bytes[mode + 7] = '2';
     std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
     for (bool body : {false, true}) {
       const std::string msg = input_error([&] { body ? (void)Body::load(path) : (void)import_garment(path); });
-      EXPECT_NE(msg.find("its mesh 0's primitive 0's indices names accessor"), std::string::npos) << msg;
+      EXPECT_NE(msg.find("its accessor "), std::string::npos) << msg;
       EXPECT_NE(msg.find(expected), std::string::npos) << msg;
     }
   }

@@ -111,155 +111,6 @@ void check_obj_indices(const std::string& path, const std::string& what) {
   }
 }
 
-// assimp 5.2 dereferences a null array when a primitive's accessor has a type or component type
-// glTF does not define (glTF 2.0, 5.1 accessor.type and accessor.componentType).
-void check_gltf_accessor(const nlohmann::json& doc, const nlohmann::json& index, const std::string& what) {
-  const auto fail = [&](const std::string& why) {
-    throw InputError(what + " " + why + "; export the file again");
-  };
-  if (!index.is_number_unsigned()) fail("names the accessor " + index.dump() + ", which is not an index");
-  const std::size_t at = index.get<std::size_t>();
-  if (!doc.contains("accessors") || !doc["accessors"].is_array() || at >= doc["accessors"].size())
-    fail("names accessor " + std::to_string(at) + ", which the file does not have");
-  const nlohmann::json& accessor = doc["accessors"][at];
-  if (!accessor.is_object()) fail("names accessor " + std::to_string(at) + ", which is not an object");
-  static const char* const types[] = {"SCALAR", "VEC2", "VEC3", "VEC4", "MAT2", "MAT3", "MAT4"};
-  const nlohmann::json type = accessor.contains("type") ? accessor["type"] : nlohmann::json();
-  if (!type.is_string() || std::find(std::begin(types), std::end(types), type.get<std::string>()) == std::end(types))
-    fail("names accessor " + std::to_string(at) + ", whose type " + type.dump() +
-         " is not one of glTF's SCALAR, VEC2, VEC3, VEC4, MAT2, MAT3 and MAT4");
-  static const int components[] = {5120, 5121, 5122, 5123, 5125, 5126};
-  const nlohmann::json component = accessor.contains("componentType") ? accessor["componentType"] : nlohmann::json();
-  if (!component.is_number_integer() ||
-      std::find(std::begin(components), std::end(components), component.get<long long>()) == std::end(components))
-    fail("names accessor " + std::to_string(at) + ", whose componentType " + component.dump() +
-         " is not one of glTF's 5120, 5121, 5122, 5123, 5125 and 5126");
-}
-
-// glTF allows only these two for an image (glTF 2.0, 5.18 image.mimeType).
-// Base64 as a data: URI holds it; nothing for text that is not.
-std::optional<std::string> base64_decode(std::string_view text) {
-  std::string out;
-  unsigned bits = 0, held = 0;
-  for (char c : text) {
-    int v = c >= 'A' && c <= 'Z' ? c - 'A' : c >= 'a' && c <= 'z' ? c - 'a' + 26 : c >= '0' && c <= '9' ? c - '0' + 52
-            : c == '+' ? 62 : c == '/' ? 63 : -1;
-    if (c == '=') break;
-    if (v < 0) return std::nullopt;
-    bits = (bits << 6) | unsigned(v);
-    held += 6;
-    if (held >= 8) {
-      held -= 8;
-      out.push_back(static_cast<char>((bits >> held) & 0xff));
-    }
-  }
-  return out;
-}
-
-// The bytes of a glTF buffer: a glb's BIN chunk (buffer 0 without a uri), a data: URI, or a file
-// beside the document. Nothing where it cannot be had; assimp then refuses the file itself.
-std::optional<std::string> gltf_buffer(const nlohmann::json& doc, std::size_t index, const std::optional<std::string>& bin,
-                                       const fs::path& folder) {
-  // assimp takes a glb's BIN chunk for buffer 0 even where the document lists no such buffer.
-  if (!doc.contains("buffers") || !doc["buffers"].is_array() || index >= doc["buffers"].size() ||
-      !doc["buffers"][index].is_object() || !doc["buffers"][index].contains("uri"))
-    return index == 0 ? bin : std::nullopt;
-  const nlohmann::json& buffer = doc["buffers"][index];
-  if (!buffer["uri"].is_string()) return std::nullopt;
-  const std::string uri = buffer["uri"].get<std::string>();
-  if (uri.rfind("data:", 0) == 0) {
-    const std::size_t comma = uri.find(";base64,");
-    return comma == std::string::npos ? std::nullopt : base64_decode(std::string_view(uri).substr(comma + 8));
-  }
-  std::ifstream in(folder / uri, std::ios::binary);
-  if (!in) return std::nullopt;
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
-
-// assimp 5.2 builds a line strip's, line loop's or triangle fan's faces from the face before, and
-// leaves a face empty where an index names no vertex: the next one then reads through a null
-// pointer (found by fuzz_body). So every index a primitive holds must name one of its vertices.
-// Read once each, and each index list checked once against a vertex count, however many
-// primitives share them.
-struct GltfBuffers {
-  std::map<std::uint64_t, std::optional<std::string>> bytes;
-  std::set<std::pair<std::uint64_t, std::uint64_t>> checked;  // (indices accessor, vertices)
-};
-
-void check_gltf_indices(const nlohmann::json& doc, const nlohmann::json& primitive, const std::optional<std::string>& bin,
-                        const fs::path& folder, GltfBuffers& buffers, const std::string& what) {
-  const nlohmann::json& accessors = doc["accessors"];  // checked before: the accessors exist
-  const nlohmann::json& indices = accessors[primitive["indices"].get<std::size_t>()];
-  const nlohmann::json& positions = accessors[primitive["attributes"]["POSITION"].get<std::size_t>()];
-  auto number = [](const nlohmann::json& object, const char* key, std::uint64_t absent) -> std::optional<std::uint64_t> {
-    if (!object.contains(key)) return absent;
-    if (!object[key].is_number_unsigned()) return std::nullopt;
-    return object[key].get<std::uint64_t>();
-  };
-  const auto vertices = number(positions, "count", 0), count = number(indices, "count", 0);
-  const auto view_index = number(indices, "bufferView", ~std::uint64_t(0)), offset = number(indices, "byteOffset", 0);
-  if (!vertices || !count || !view_index || !offset || !doc.contains("bufferViews") || !doc["bufferViews"].is_array() ||
-      *view_index >= doc["bufferViews"].size())
-    return;  // no index data, or none assimp reads
-  const nlohmann::json& view = doc["bufferViews"][*view_index];
-  if (!view.is_object()) return;
-  const auto buffer_index = number(view, "buffer", ~std::uint64_t(0)), view_offset = number(view, "byteOffset", 0);
-  if (!buffer_index || !view_offset) return;
-  if (!buffers.checked.insert({primitive["indices"].get<std::uint64_t>(), *vertices}).second) return;
-  if (!buffers.bytes.count(*buffer_index)) buffers.bytes[*buffer_index] = gltf_buffer(doc, *buffer_index, bin, folder);
-  const std::optional<std::string>& buffer = buffers.bytes[*buffer_index];
-  const std::uint64_t size = indices["componentType"] == 5121 ? 1 : indices["componentType"] == 5123 ? 2 : 4;
-  if (!buffer || *count > buffer->size() || *view_offset + *offset + *count * size > buffer->size()) return;
-  const auto* bytes = reinterpret_cast<const unsigned char*>(buffer->data() + *view_offset + *offset);
-  for (std::uint64_t i = 0; i < *count; ++i) {
-    std::uint64_t v = 0;
-    for (std::uint64_t k = 0; k < size; ++k) v |= std::uint64_t(bytes[i * size + k]) << (8 * k);
-    if (v >= *vertices)
-      throw InputError(what + "'s index " + std::to_string(i) + " names vertex " + std::to_string(v) + ", but it has " +
-                       std::to_string(*vertices) + "; export the file again");
-  }
-}
-
-void check_gltf_json(const std::string& text, const std::string& what, const std::optional<std::string>& bin,
-                     const fs::path& folder) {
-  const nlohmann::json doc = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (doc.is_discarded()) throw InputError(what + ": its glTF JSON is not valid JSON; export the file again");
-  if (!doc.is_object()) return;
-  GltfBuffers buffers;
-  // assimp 5.2 dereferences a null array on a line primitive with indices but no positions.
-  if (doc.contains("meshes") && doc["meshes"].is_array()) {
-    const nlohmann::json& meshes = doc["meshes"];
-    for (std::size_t i = 0; i < meshes.size(); ++i) {
-      if (!meshes[i].is_object() || !meshes[i].contains("primitives") || !meshes[i]["primitives"].is_array()) continue;
-      const nlohmann::json& primitives = meshes[i]["primitives"];
-      for (std::size_t j = 0; j < primitives.size(); ++j) {
-        const nlohmann::json& p = primitives[j];
-        if (!p.is_object() || !p.contains("attributes") || !p["attributes"].is_object() ||
-            !p["attributes"].contains("POSITION"))
-          throw InputError(what + ": its mesh " + std::to_string(i) + "'s primitive " + std::to_string(j) +
-                           " has no POSITION attribute, so no vertices; export the file again");
-        const std::string primitive = what + ": its mesh " + std::to_string(i) + "'s primitive " + std::to_string(j);
-        for (const auto& [name, index] : p["attributes"].items())
-          check_gltf_accessor(doc, index, primitive + "'s attribute " + name);
-        if (p.contains("indices")) {
-          check_gltf_accessor(doc, p["indices"], primitive + "'s indices");
-          check_gltf_accessor(doc, p["attributes"]["POSITION"], primitive + "'s attribute POSITION");
-          check_gltf_indices(doc, p, bin, folder, buffers, primitive);
-        }
-      }
-    }
-  }
-  if (!doc.contains("images")) return;
-  const nlohmann::json& images = doc["images"];
-  if (!images.is_array()) throw InputError(what + ": its glTF 'images' is not a list; export the file again");
-  for (std::size_t i = 0; i < images.size(); ++i) {
-    if (!images[i].is_object() || !images[i].contains("mimeType")) continue;
-    const nlohmann::json& mime = images[i]["mimeType"];
-    if (!mime.is_string() || (mime != "image/png" && mime != "image/jpeg"))
-      throw InputError(what + ": its image " + std::to_string(i) + " has the MIME type " + mime.dump() +
-                       ", and glTF allows only \"image/png\" and \"image/jpeg\"; export the file again");
-  }
-}
 
 // assimp 5.2's OFF reader does not move on to the next face when it drops one of 0 or over 9
 // corners, but still counts it off the mesh's faces: enough of them wrap that count and it reads
@@ -518,7 +369,7 @@ std::size_t ply_type_size(const std::string& type) {
   static const std::map<std::string, std::size_t> sizes = {
       {"char", 1},  {"int8", 1},    {"uchar", 1},  {"uint8", 1},   {"short", 2},   {"int16", 2},  {"ushort", 2},
       {"uint16", 2}, {"int", 4},    {"int32", 4},  {"uint", 4},    {"uint32", 4},  {"float", 4},  {"float32", 4},
-      {"double", 8}, {"float64", 8}};
+      {"double", 8}, {"float64", 8}, {"double64", 8}};
   const auto it = sizes.find(type);
   return it == sizes.end() ? 0 : it->second;
 }
@@ -789,8 +640,8 @@ void check_before_assimp(const std::string& path, const std::string& what) {
     return;
   }
   std::ifstream in(path, std::ios::binary);
-  char head[20] = {};
-  in.read(head, sizeof head);
+  char head[21] = {};  // 20 bytes and a NUL
+  in.read(head, sizeof head - 1);
   const std::streamsize got = in.gcount();
   // assimp 5.2 gives a file to the first importer that takes it, some by name and some by content,
   // so every check whose format the file may be read as is made.
@@ -823,10 +674,12 @@ void check_before_assimp(const std::string& path, const std::string& what) {
       data.emplace(le32(chunk), '\0');
       in.read(data->data(), static_cast<std::streamsize>(data->size()));
     }
-    check_gltf_json(text, what, data, fs::path(path).parent_path());
-  } else if (ext == ".gltf") {
+    check_gltf_document(text, what, data, fs::path(path).parent_path());
+  } else if (ext == ".gltf" || (got > 0 && head[std::strspn(head, " \t\r\n")] == '{')) {
+    // A glTF document by name, or JSON that assimp may take for one by its content.
+    in.clear();
     in.seekg(0);
-    check_gltf_json(std::string(std::istreambuf_iterator<char>(in), {}), what, std::nullopt, fs::path(path).parent_path());
+    check_gltf_document(std::string(std::istreambuf_iterator<char>(in), {}), what, std::nullopt, fs::path(path).parent_path());
   }
   if (ext == ".fbx" || std::string_view(head, static_cast<std::size_t>(got)).find("; FBX") != std::string_view::npos) {
     if (std::string_view(head, static_cast<std::size_t>(got)).rfind("Kaydara", 0) != 0) check_fbx_text_connections(path, what);
@@ -872,7 +725,6 @@ void check_before_assimp(const std::string& path, const std::string& what) {
 }  // namespace
 
 void prepare_importer(Assimp::Importer& importer, const std::string& path, const std::string& what) {
-  check_before_assimp(path, what);
   if (Assimp::BaseImporter* ogex = importer.GetImporter("ogex")) {
     // Unregistered, the importer is no longer the Importer's to delete.
     if (importer.UnregisterLoader(ogex) == aiReturn_SUCCESS) delete ogex;
@@ -894,6 +746,14 @@ void prepare_importer(Assimp::Importer& importer, const std::string& path, const
       }
     }
   }
+  // A name no importer claims would be tried by content on every importer assimp has, most of them
+  // neither checked here nor fuzzed: Kiji reads a file by its extension only.
+  if (candidates.empty()) {
+    const std::string ext = fs::path(path).extension().string();
+    throw InputError(what + ": " + (ext.empty() ? std::string("its name has no extension") : "its extension '" + ext + "' is not one assimp reads") +
+                     ": name the file after its format (.obj, .fbx, .dae, .zae, .glb, .gltf, .ply, .stl, .off, ...)");
+  }
+  check_before_assimp(path, what);
   if (candidates.size() < 2) return;
   for (Assimp::BaseImporter* candidate : candidates)
     if (candidate->CanRead(path, importer.GetIOHandler(), true)) return;

@@ -2,6 +2,8 @@
 // hang on or leak on; garment and body import share them. Private to libkiji.
 #pragma once
 
+#include <filesystem>
+#include <optional>
 #include <string>
 
 namespace Assimp {
@@ -30,6 +32,12 @@ namespace kiji::detail {
 // parser reads past the end of a broken file, and a file of an unknown extension may be tried as
 // OpenGEX). Any other file is left to assimp.
 void prepare_importer(Assimp::Importer& importer, const std::string& path, const std::string& what);
+
+// Checks a glTF document (its JSON text; `bin` a glb's binary chunk; `folder` where its files lie)
+// against what assimp 5.2's glTF 2 importer reads safely, and throws InputError, starting with
+// `what`, for anything else: see import_gltf.cpp.
+void check_gltf_document(const std::string& text, const std::string& what, const std::optional<std::string>& bin,
+                         const std::filesystem::path& folder);
 
 // Follows assimp 5.2's PLY reader over a PLY file's bytes and throws InputError, starting with
 // `what`, before it would allocate what the file cannot hold (an element count or a list length

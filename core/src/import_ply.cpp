@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -87,12 +88,23 @@ class PlyReading {
     if (next_line(b) != Line::whole) fail("its PLY header has no end_header line");
     read_header(b, binary);
     if (block_start_ != 0) fail("its PLY header is over 1 MiB long");
-    const std::size_t data = block_start_ + cache_pos_;
+    std::size_t data = block_start_ + cache_pos_;
+    // The binary reader drops a newline first in its data (the end of a header's "\r\n").
+    if (binary && cache_at(cache_pos_) == '\n') ++data;
     const std::uint64_t room = file_.size() > data ? file_.size() - data : 0;
-    for (const Element& e : elements_)
+    for (const Element& e : elements_) {
       if (e.count > room + 1)
         fail("its PLY header declares " + std::to_string(e.count) + " " + e.name + " elements, more than the " +
              std::to_string(room) + " bytes after its header can hold");
+      // Each value takes a byte at least: assimp keeps one of 56 bytes for each, read or not.
+      if (std::uint64_t(e.count) * e.properties.size() > room + 1)
+        fail("its PLY header declares " + std::to_string(e.count) + " " + e.name + " elements of " +
+             std::to_string(e.properties.size()) + " values, more than the " + std::to_string(room) +
+             " bytes after its header can hold");
+      // assimp makes a material of some kilobytes for each, and Kiji keeps none.
+      if (e.kind == Kind::material && e.count > 256)
+        fail("its PLY header declares " + std::to_string(e.count) + " materials, and Kiji reads 256 at most");
+    }
     if (binary) read_binary(data);
     else read_ascii(b);
   }
@@ -201,10 +213,33 @@ class PlyReading {
   [[noreturn]] void not_a_number(const LineBuffer& b, std::size_t k, const Where& where) const {
     fail("its PLY data has '" + shown(b, k) + "' where " + where.text() + " needs a number");
   }
-  // fast_atoreal_move: what it consumes exactly, its value near enough to tell a count. It throws
-  // (and assimp's import ends) on what is no number, where its digit reader throws, and where an
-  // integer part overflows 64 bits it does not move on; all three are refused here.
-  double real(const LineBuffer& b, std::size_t& k, const Where& where) const {
+  // strtoul10_64: digits into 64 bits. It throws where there is no digit (assimp's import ends),
+  // and where the value wraps it returns without moving on: both refused here. With `most`, it
+  // keeps that many digits and passes over the rest, saying in `most` how many it kept.
+  std::uint64_t digits64(const LineBuffer& b, std::size_t& k, std::size_t from, const Where& where,
+                         unsigned* most = nullptr) const {
+    if (!digit(at(b, k))) not_a_number(b, from, where);
+    std::uint64_t value = 0;
+    unsigned kept = 0;
+    while (digit(at(b, k))) {
+      const std::uint64_t next = value * 10 + std::uint64_t(at(b, k) - '0');
+      if (next < value) not_a_number(b, from, where);
+      value = next;
+      ++k;
+      if (most && *most == ++kept) {
+        while (digit(at(b, k))) ++k;
+        return value;
+      }
+    }
+    if (most) *most = kept;
+    return value;
+  }
+  // fast_atoreal_move, in its own arithmetic (Real is float for PLY's float, double for double):
+  // what it consumes, and the value it makes, to the bit.
+  template <typename Real>
+  Real real(const LineBuffer& b, std::size_t& k, const Where& where) const {
+    static constexpr double kTenths[16] = {0.0,     0.1,     0.01,     0.001,     0.0001,     0.00001,     0.000001,    0.0000001,
+                                           1e-8,    1e-9,    1e-10,    1e-11,     1e-12,      1e-13,       1e-14,       1e-15};
     const std::size_t from = k;
     const bool minus = at(b, k) == '-';
     if (minus || at(b, k) == '+') ++k;
@@ -215,37 +250,35 @@ class PlyReading {
     };
     if ((at(b, k) | 0x20) == 'n' && word("nan")) {
       k += 3;
-      return std::nan("");
+      return std::numeric_limits<Real>::quiet_NaN();
     }
     if ((at(b, k) | 0x20) == 'i' && word("inf")) {
       k += 3;
       if ((at(b, k) | 0x20) == 'i' && word("inity")) k += 5;
-      return minus ? -HUGE_VAL : HUGE_VAL;
+      return minus ? -std::numeric_limits<Real>::infinity() : std::numeric_limits<Real>::infinity();
     }
     const bool point = at(b, k) == '.' || at(b, k) == ',';
     if (!digit(at(b, k)) && !(point && digit(at(b, k + 1)))) not_a_number(b, from, where);
-    std::string text = minus ? "-" : "";
-    auto digits = [&](bool bounded) {
-      if (!digit(at(b, k))) not_a_number(b, from, where);
-      std::size_t n = 0;
-      for (; digit(at(b, k)); ++k, ++n) text += at(b, k);
-      if (bounded && n > 19) not_a_number(b, from, where);
-    };
-    if (!point) digits(true);
+    Real f = 0;
+    if (!point) f = static_cast<Real>(digits64(b, k, from, where));
     if ((at(b, k) == '.' || at(b, k) == ',') && digit(at(b, k + 1))) {
       ++k;
-      text += '.';
-      digits(false);  // past 15 digits, passed over
+      unsigned most = 15;
+      double fraction = static_cast<double>(digits64(b, k, from, where, &most));
+      fraction *= kTenths[most];
+      f += static_cast<Real>(fraction);
     } else if (at(b, k) == '.') {
       ++k;
     }
     if (at(b, k) == 'e' || at(b, k) == 'E') {
       ++k;
-      text += 'e';
-      if (at(b, k) == '-' || at(b, k) == '+') text += at(b, k++);
-      digits(true);
+      const bool down = at(b, k) == '-';
+      if (down || at(b, k) == '+') ++k;
+      Real exponent = static_cast<Real>(digits64(b, k, from, where));
+      if (down) exponent = -exponent;
+      f *= std::pow(static_cast<Real>(10.0), exponent);
     }
-    return std::strtod(text.c_str(), nullptr);
+    return minus ? -f : f;
   }
   // PropertyInstance::ParseValue, then ConvertTo<unsigned int> where it is a list's length.
   double value(const LineBuffer& b, std::size_t& k, Type type, const Where& where) const {
@@ -263,9 +296,9 @@ class PlyReading {
         return static_cast<std::int32_t>(minus ? 0u - v : v);
       }
       case Type::f32:
-        return static_cast<float>(real(b, k, where));
+        return real<float>(b, k, where);
       default:
-        return real(b, k, where);
+        return real<double>(b, k, where);
     }
   }
   std::uint32_t length(double v, const Where& where) const {
@@ -535,7 +568,7 @@ class PlyReading {
             }
             n = length(v, Where{e, p, i});
           }
-          if (n * size_of(p.type) > file_.size() - pos) cut(e, i);
+          if (pos > file_.size() || n * size_of(p.type) > file_.size() - pos) cut(e, i);
           pos += n * size_of(p.type);
           sizes.push_back(static_cast<std::uint32_t>(n));
         }

@@ -777,6 +777,41 @@ TEST(BodyImportErrors, AGltfOutsideWhatAssimpReadsSafelyIsRefused) {
   refused("glTF1.gltf", R"("version":"2.0")", R"("version":"1.0")", "it is not glTF 2.0");
 }
 
+TEST(BodyImportErrors, AFailedAssimpAssertionEndsTheImportNotTheProcess) {
+  // Debian builds assimp with its assertions on: a Collada primitive declaring triangles it does
+  // not list aborted the process (found by a review of the Collada reader). It ends the import now.
+  std::string dae = kZupCentimetreDae;
+  const std::string list = "<p>0 2 1 0 1 3 1 2 3 2 0 3</p>";
+  dae.replace(dae.find(list), list.size(), "");  // four triangles declared, none listed
+  const std::string msg = input_error([&] { Body::load(tmp_file("count.dae", dae)); });
+  EXPECT_NE(msg.find("its check 'actualPrimitives == numPrimitives' failed"), std::string::npos) << msg;
+}
+
+TEST(BodyImportErrors, AnObjThatAssimpWouldWritePastIsRefused) {
+  // From a review of assimp's OBJ reader: a line of one corner gets no room in its arrays yet moves
+  // it on by one, so the next line's corners were written past their end (a heap overrun); a
+  // vertical tab sends its face reader past the line into what longer lines left in its buffer
+  // (25 million points from a 55 KB file); a texture statement before a material file's first
+  // newmtl is written through a null material (a segmentation fault).
+  const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+  std::string msg = input_error([&] { Body::load(tmp_file("lines.obj", tri + "l 1\nl 1\nl 1 2 3\nf 1 2 3\n")); });
+  EXPECT_NE(msg.find("line 4 ('l 1') is a line of 1 corners; a line has 2 at least"), std::string::npos) << msg;
+  msg = input_error([&] { Body::load(tmp_file("vtab.obj", tri + "f 1 2 3 \v\n")); });
+  EXPECT_NE(msg.find("holds a character (byte 11) that is not a number, a slash or a space"), std::string::npos) << msg;
+  // A face after a lone carriage return is a face to assimp, and is checked as one.
+  msg = input_error([&] { Body::load(tmp_file("cr.obj", tri + "# a comment\rf 1 2 9\n")); });
+  EXPECT_NE(msg.find("refers to vertex 9, but the file has 3"), std::string::npos) << msg;
+  std::filesystem::create_directories(std::string(KIJI_TEST_TMP) + "/mtl");
+  tmp_file("mtl/a.mtl", "# made by hand\nmap_Kd x.png\nnewmtl skin\n");
+  const std::string obj = tmp_file("mtl/body.obj", "mtllib a.mtl\n" + tri + "f 1 2 3\n");
+  msg = input_error([&] { Body::load(obj); });
+  EXPECT_NE(msg.find("its material file"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("has 'map_Kd x.png' before its first newmtl"), std::string::npos) << msg;
+  // The same material file with its statement after newmtl is read.
+  tmp_file("mtl/a.mtl", "# made by hand\nnewmtl skin\nmap_Kd x.png\n");
+  EXPECT_EQ(Body::load(obj).triangles().size(), 1u);
+}
+
 // A zip holding the files given (name, bytes), as a zipped Collada body (.zae) is.
 std::string zip_file(const std::string& name, const std::vector<std::pair<std::string, std::string>>& entries) {
   const std::string path = tmp_file(name, "");

@@ -407,7 +407,11 @@ Body Body::load(const std::string& path, const BodyImportOptions& options) {
     fail(path, "it has no triangles (only points, lines or nothing): a body needs a surface; export the mesh "
                "with its faces");
 
-  scene = importer.ApplyPostProcessing(aiProcess_JoinIdenticalVertices);
+  try {
+    scene = importer.ApplyPostProcessing(aiProcess_JoinIdenticalVertices);
+  } catch (const std::exception& e) {
+    fail(path, std::string("assimp failed to weld its vertices (") + e.what() + ")");
+  }
   if (!scene) fail(path, std::string("assimp failed to weld its vertices (") + importer.GetErrorString() + ")");
 
   // Where the up axis and unit come from: options, else what the file says, else +Y and metres.

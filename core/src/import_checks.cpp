@@ -4,6 +4,9 @@
 #include "kiji/error.h"
 
 #include <assimp/BaseImporter.h>
+#include <assimp/DefaultIOSystem.h>
+#include <assimp/IOStream.hpp>
+#include <assimp/ai_assert.h>
 #include <assimp/Importer.hpp>
 #include <assimp/scene.h>
 
@@ -23,10 +26,21 @@
 #include <memory>
 #include <optional>
 #include <set>
+#include <stdexcept>
 #include <sstream>
 #include <string_view>
 #include <utility>
 #include <vector>
+
+// Debian builds assimp with its assertions on, and a failed one ends the process (a Collada
+// primitive whose count differs from its list, a <skew>, an empty image path). Defined here, ahead
+// of assimp's own in the order symbols are looked up, a failed assertion throws instead, and the
+// import ends with its message as with any other error.
+namespace Assimp {
+void aiAssertViolation(const char* expression, const char* file, int line) {
+  throw std::runtime_error(std::string("its check '") + expression + "' failed at " + file + ":" + std::to_string(line));
+}
+}  // namespace Assimp
 
 namespace kiji::detail {
 
@@ -51,8 +65,23 @@ void check_obj_indices(const std::string& path, const std::string& what) {
   };
   const char* const kinds[3] = {"vertex", "texture coordinate", "normal"};
   long long total[3] = {0, 0, 0};
-  for (int pass = 0; pass < 2; ++pass) {
+  // assimp ends a line at "\r", NUL and a form feed as well as "\n": a face after a lone "\r" is
+  // a face to it, so lines are split here as it splits them.
+  std::string text;
+  {
     std::ifstream in(path, std::ios::binary);
+    text.assign(std::istreambuf_iterator<char>(in), {});
+    std::string split;
+    split.reserve(text.size());
+    for (std::size_t i = 0; i < text.size(); ++i) {
+      const char c = text[i];
+      if (c == '\r' && i + 1 < text.size() && text[i + 1] == '\n') continue;
+      split += c == '\r' || c == '\0' || c == '\f' ? '\n' : c;
+    }
+    text.swap(split);
+  }
+  for (int pass = 0; pass < 2; ++pass) {
+    std::istringstream in(text);
     long long so_far[3] = {0, 0, 0};
     long long number = 0;
     std::string line;
@@ -69,7 +98,22 @@ void check_obj_indices(const std::string& path, const std::string& what) {
         ++so_far[texture ? 1 : normal ? 2 : 0];
         continue;
       }
-      if (pass == 0 || (key[0] != 'f' && key[0] != 'l' && key[0] != 'p') || end == std::string::npos) continue;
+      if (pass == 0 || (key[0] != 'f' && key[0] != 'l' && key[0] != 'p')) continue;
+      // Its face reader runs on past a character it does not expect (a vertical tab, a
+      // continuation) into what earlier lines left in its buffer, taking their numbers for corners.
+      for (std::size_t i = key.size() + at; i < line.size() && line[i] != '#'; ++i)
+        if (!std::isdigit(static_cast<unsigned char>(line[i])) && std::string_view(" \t/+-").find(line[i]) == std::string_view::npos)
+          fail(number, line, "holds a character (byte " + std::to_string(static_cast<unsigned char>(line[i])) +
+                                 ") that is not a number, a slash or a space");
+      if (key[0] == 'l') {
+        // A line of one corner gets no room in assimp's arrays, yet it moves on by one: the next
+        // line's corners are written past their end.
+        std::istringstream words(line.substr(key.size() + at));
+        int corners = 0;
+        for (std::string word; words >> word && word[0] != '#';) ++corners;
+        if (corners < 2) fail(number, line, "is a line of " + std::to_string(corners) + " corners; a line has 2 at least");
+      }
+      if (end == std::string::npos) continue;
       // Each corner is v, v/vt, v//vn or v/vt/vn (a slash may end it); assimp reads other shapes,
       // such as '////////4444', past the end of its line.
       std::istringstream corners(line.substr(end));
@@ -722,9 +766,53 @@ void check_before_assimp(const std::string& path, const std::string& what) {
   }
 }
 
+// assimp's MTL reader writes through a null material where a texture or anisotropy statement
+// comes before the file's first newmtl (a segmentation fault). Which material files an OBJ opens
+// (its mtllib lines, relative paths, a fallback to its own name) is assimp's to decide, so each is
+// checked as assimp opens it.
+class CheckingIOSystem : public Assimp::DefaultIOSystem {
+ public:
+  Assimp::IOStream* Open(const char* file, const char* mode) override {
+    Assimp::IOStream* stream = DefaultIOSystem::Open(file, mode);
+    if (stream && lower_extension(file) == ".mtl") {
+      std::string bytes(stream->FileSize(), '\0');
+      bytes.resize(stream->Read(bytes.data(), 1, bytes.size()));
+      stream->Seek(0, aiOrigin_SET);
+      if (const std::string why = mtl_problem(bytes); !why.empty()) {
+        Close(stream);
+        throw std::runtime_error("its material file '" + std::string(file) + "' " + why);
+      }
+    }
+    return stream;
+  }
+
+ private:
+  static std::string mtl_problem(const std::string& bytes) {
+    if (bytes.size() >= 4 && (bytes.compare(0, 4, std::string("\xFE\xFF\0\0", 4)) == 0 ||
+                              bytes.compare(0, 4, std::string("\0\0\xFE\xFF", 4)) == 0))
+      return "is UTF-32 text, which assimp reads past its buffer";
+    std::size_t at = 0;
+    while (at < bytes.size()) {
+      std::size_t end = at;
+      while (end < bytes.size() && std::string_view("\n\r\f", 3).find(bytes[end]) == std::string_view::npos && bytes[end] != '\0')
+        ++end;
+      std::size_t first = at;
+      while (first < end && (bytes[first] == ' ' || bytes[first] == '\t')) ++first;
+      const std::string line = lowercase(bytes.substr(first, end - first));
+      at = end + 1;
+      if (line.empty() || line[0] == '#') continue;
+      if (line.rfind("newmtl", 0) == 0) return "";
+      return "has '" + bytes.substr(first, std::min<std::size_t>(end - first, 40)) +
+             "' before its first newmtl, where assimp has no material to write it to";
+    }
+    return "";
+  }
+};
+
 }  // namespace
 
 void prepare_importer(Assimp::Importer& importer, const std::string& path, const std::string& what) {
+  importer.SetIOHandler(new CheckingIOSystem);  // the importer's to delete
   if (Assimp::BaseImporter* ogex = importer.GetImporter("ogex")) {
     // Unregistered, the importer is no longer the Importer's to delete.
     if (importer.UnregisterLoader(ogex) == aiReturn_SUCCESS) delete ogex;
@@ -786,7 +874,13 @@ void post_process(Assimp::Importer& importer, unsigned post_processing, const st
     }
     mesh->mPrimitiveTypes = types;
   }
-  if (!importer.ApplyPostProcessing(post_processing)) {
+  const aiScene* processed = nullptr;
+  try {
+    processed = importer.ApplyPostProcessing(post_processing);
+  } catch (const std::exception& e) {
+    throw InputError(what + ": assimp could not process it (" + e.what() + "); export it again");
+  }
+  if (!processed) {
     std::string err = importer.GetErrorString();
     throw InputError(what + ": assimp could not process it (" + (err.empty() ? std::string("no reason given") : err) +
                      "); export it again");

@@ -358,6 +358,13 @@ Body Body::load(const std::string& path, const BodyImportOptions& options) {
   Assimp::Importer importer;
   detail::prepare_importer(importer, path, "cannot load body '" + path + "'");
   // Without normals, uvs and colours, Collada's seam-split corners become identical and weld.
+  // A body is its surface: what FBX holds beside it is not read (assimp's FBX reader frees a bone
+  // twice for two clusters of one name, reads an empty animation curve through a null pointer,
+  // adds rotation keys without end, and frees a texture's content twice).
+  for (const char* part : {AI_CONFIG_IMPORT_FBX_READ_ANIMATIONS, AI_CONFIG_IMPORT_FBX_READ_WEIGHTS,
+                           AI_CONFIG_IMPORT_FBX_READ_MATERIALS, AI_CONFIG_IMPORT_FBX_READ_TEXTURES,
+                           AI_CONFIG_IMPORT_FBX_READ_CAMERAS, AI_CONFIG_IMPORT_FBX_READ_LIGHTS})
+    importer.SetPropertyBool(part, false);
   importer.SetPropertyInteger(
       AI_CONFIG_PP_RVC_FLAGS,
       aiComponent_NORMALS | aiComponent_TANGENTS_AND_BITANGENTS | aiComponent_COLORS |

@@ -812,6 +812,44 @@ TEST(BodyImportErrors, AnObjThatAssimpWouldWritePastIsRefused) {
   EXPECT_EQ(Body::load(obj).triangles().size(), 1u);
 }
 
+TEST(BodyImportErrors, ColladaPartsAssimpDoesNotReadSafelyAreRefused) {
+  // From a review of assimp's Collada reader: node instances and morphs followed without looking
+  // for loops, skin joints and animation values written past their arrays, controllers and effect
+  // parameters naming each other read without end (stack overflows, heap overruns, hangs). A body
+  // needs none of them: they are refused, saying which.
+  const std::string dae = kZupCentimetreDae;
+  const auto refused = [&](const std::string& name, const std::string& from, const std::string& to, const std::string& expected) {
+    std::string text = dae;
+    ASSERT_NE(text.find(from), std::string::npos) << from;
+    text.replace(text.find(from), from.size(), to);
+    const std::string path = tmp_file(name, text);
+    const std::string msg = input_error([&] { Body::load(path); });
+    EXPECT_NE(msg.find(expected), std::string::npos) << name << ": " << msg;
+  };
+  const std::string node = R"(<node id="n" name="n"><instance_geometry url="#tet"/></node>)";
+  refused("instance.dae", node, R"(<node id="n" name="n"><instance_node url="#n"/></node>)", "it holds node instances");
+  refused("skin.dae", "<library_geometries>",
+          R"(<library_controllers><controller id="c"><skin source="#c"/></controller></library_controllers><library_geometries>)",
+          "it holds controllers (skins or morphs)");
+  refused("anim.dae", "<library_geometries>",
+          R"(<library_animations><animation><channel source="#s" target="n/t"/></animation></library_animations><library_geometries>)",
+          "it holds animations");
+  refused("effect.dae", "<library_geometries>",
+          R"(<library_effects><effect id="e"><profile_COMMON><newparam sid="a"><surface type="2D"><init_from>b</init_from></surface></newparam><newparam sid="b"><sampler2D><source>a</source></sampler2D></newparam></profile_COMMON></effect></library_effects><library_geometries>)",
+          "its effect's parameters name each other in a loop");
+  refused("names.dae", R"(<float_array id="tet-pos-array" count="12">)", R"(<Name_array id="tet-pos-array" count="12">)",
+          "reads an array that is not a <float_array>");
+  refused("minus.dae", R"(<accessor source="#tet-pos-array" count="4")", R"(<accessor source="#tet-pos-array" count="-1")",
+          "has the count -1");
+  std::string nested;
+  for (int i = 0; i < 300; ++i) nested += "<node id=\"d" + std::to_string(i) + "\">";
+  nested += node;
+  for (int i = 0; i < 300; ++i) nested += "</node>";
+  refused("deep.dae", node, nested, "its nodes nest deeper than 200 levels");
+  // The tetrahedron itself loads.
+  EXPECT_EQ(Body::load(tmp_file("tet.dae", dae)).triangles().size(), 4u);
+}
+
 // A zip holding the files given (name, bytes), as a zipped Collada body (.zae) is.
 std::string zip_file(const std::string& name, const std::vector<std::pair<std::string, std::string>>& entries) {
   const std::string path = tmp_file(name, "");

@@ -850,6 +850,65 @@ TEST(BodyImportErrors, ColladaPartsAssimpDoesNotReadSafelyAreRefused) {
   EXPECT_EQ(Body::load(tmp_file("tet.dae", dae)).triangles().size(), 4u);
 }
 
+// A binary FBX record (FBX 7.4: 32-bit offsets) at byte `at` of the file, with its properties
+// bytes and its children, each made by a call that is given where it starts.
+using FbxChildren = std::vector<std::function<std::string(std::size_t)>>;
+std::string fbx_record(std::size_t at, const std::string& name, int properties, const std::string& data,
+                       const FbxChildren& children = {}) {
+  auto u32 = [](std::uint64_t v) {
+    std::string b(4, '\0');
+    for (int k = 0; k < 4; ++k) b[k] = static_cast<char>((v >> (8 * k)) & 0xff);
+    return b;
+  };
+  std::string inside;
+  const std::size_t head = 13 + name.size() + data.size();
+  for (const auto& child : children) inside += child(at + head + inside.size());
+  if (!children.empty()) inside += std::string(13, '\0');
+  return u32(at + head + inside.size()) + u32(properties) + u32(data.size()) + static_cast<char>(name.size()) + name + data +
+         inside;
+}
+
+TEST(BodyImportErrors, ABinaryFbxAssimpDoesNotSurviveIsRefused) {
+  // From a review of assimp's FBX reader: it recurses once a nested record (24,000 deep overflowed
+  // the stack), allocates what a compressed array declares before inflating it (6.3 GB from 785
+  // bytes), copies a model once for each parent model (the tree doubles a level), and writes a
+  // layer of a negative index before its array.
+  const std::string header = std::string("Kaydara FBX Binary  \0\x1a\0", 23) + std::string("\xe8\x1c\0\0", 4);  // 7400
+  auto file = [&](const FbxChildren& top) {
+    std::string bytes = header;
+    for (const auto& record : top) bytes += record(bytes.size());
+    return bytes + std::string(13, '\0');
+  };
+  std::function<std::string(std::size_t, int)> nest = [&](std::size_t at, int levels) {
+    return fbx_record(at, "N", 0, "", levels == 0 ? FbxChildren{} : FbxChildren{[&, levels](std::size_t a) { return nest(a, levels - 1); }});
+  };
+  std::string msg = input_error([&] { Body::load(tmp_file("deep.fbx", file({[&](std::size_t a) { return nest(a, 100); }}))); });
+  EXPECT_NE(msg.find("its FBX records nest deeper than 64 levels"), std::string::npos) << msg;
+  // An array of 240 million floats, said to be compressed into 8 bytes.
+  const std::string packed = std::string("f") + std::string("\0\x1c\x4e\x0e\1\0\0\0\x08\0\0\0", 12) + std::string(8, '\0');
+  msg = input_error([&] { Body::load(tmp_file("bomb.fbx", file({[&](std::size_t a) { return fbx_record(a, "Vertices", 1, packed); }}))); });
+  EXPECT_NE(msg.find("its compressed arrays declare 960000000 bytes"), std::string::npos) << msg;
+  msg = input_error([&] {
+    Body::load(tmp_file("layer.fbx", file({[&](std::size_t a) { return fbx_record(a, "TypedIndex", 1, std::string("I\xff\xff\xff\xff")); }})));
+  });
+  EXPECT_NE(msg.find("its FBX layer has the index -1"), std::string::npos) << msg;
+  // Model 2 is the child of model 1 twice.
+  auto id = [](char n) { return std::string("L") + n + std::string(7, '\0'); };
+  auto text = [](const std::string& t) { return std::string("S") + static_cast<char>(t.size()) + std::string(3, '\0') + t; };
+  const FbxChildren objects = {[&](std::size_t a) { return fbx_record(a, "Model", 1, id(1)); },
+                               [&](std::size_t a) { return fbx_record(a, "Model", 1, id(2)); }};
+  const std::string link = text("OO") + id(2) + id(1);
+  const FbxChildren twice = {[&](std::size_t a) { return fbx_record(a, "C", 3, link); },
+                             [&](std::size_t a) { return fbx_record(a, "C", 3, link); }};
+  msg = input_error([&] {
+    Body::load(tmp_file("twice.fbx", file({[&](std::size_t a) { return fbx_record(a, "Objects", 0, "", objects); },
+                                             [&](std::size_t a) { return fbx_record(a, "Connections", 0, "", twice); }})));
+  });
+  EXPECT_NE(msg.find("its FBX model 2 has two parents"), std::string::npos) << msg;
+  // Debian's binary FBX samples load.
+  EXPECT_GT(Body::load(models + "/FBX/spider.fbx").triangles().size(), 1000u);
+}
+
 // A zip holding the files given (name, bytes), as a zipped Collada body (.zae) is.
 std::string zip_file(const std::string& name, const std::vector<std::pair<std::string, std::string>>& entries) {
   const std::string path = tmp_file(name, "");

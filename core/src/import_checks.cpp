@@ -347,9 +347,16 @@ bool off_magic(std::string_view head) { return lowercase(std::string(head.substr
 void check_fbx_text_connections(const std::string& path, const std::string& what) {
   std::ifstream in(path, std::ios::binary);
   std::map<long long, std::vector<long long>> parents;
+  std::set<long long> models;
   std::string line;
   while (std::getline(in, line)) {
     std::size_t at = line.find_first_not_of(" \t");
+    if (at != std::string::npos && line.compare(at, 6, "Model:") == 0) {
+      char* after = nullptr;
+      const long long id = std::strtoll(line.c_str() + at + 6, &after, 10);
+      if (after != line.c_str() + at + 6) models.insert(id);
+      continue;
+    }
     if (at == std::string::npos || line.compare(at, 2, "C:") != 0) continue;
     const std::size_t oo = line.find("\"OO\"", at);
     if (oo == std::string::npos) continue;
@@ -388,6 +395,15 @@ void check_fbx_text_connections(const std::string& path, const std::string& what
         stack.push_back({parent, 0});
       }
     }
+  }
+  // A model linked to two parent models (or to one twice) is copied, with all under it, once for
+  // each: the tree doubles a level.
+  for (const auto& [child, ups] : parents) {
+    if (!models.count(child)) continue;
+    int links = 0;
+    for (long long up : ups) links += up == 0 || models.count(up);
+    if (links > 1)
+      throw InputError(what + ": its FBX model " + std::to_string(child) + " has two parents; export the file again");
   }
 }
 
@@ -831,7 +847,13 @@ void check_before_assimp(const std::string& path, const std::string& what) {
     check_gltf_document(std::string(std::istreambuf_iterator<char>(in), {}), what, std::nullopt, fs::path(path).parent_path());
   }
   if (ext == ".fbx" || std::string_view(head, static_cast<std::size_t>(got)).find("; FBX") != std::string_view::npos) {
-    if (std::string_view(head, static_cast<std::size_t>(got)).rfind("Kaydara", 0) != 0) check_fbx_text_connections(path, what);
+    if (std::string_view(head, static_cast<std::size_t>(got)).rfind("Kaydara", 0) != 0) {
+      check_fbx_text_connections(path, what);
+    } else {
+      in.clear();
+      in.seekg(0);
+      check_fbx_binary(std::string(std::istreambuf_iterator<char>(in), {}), what);
+    }
   }
   if (ext == ".stl" || stl_magic(path)) {
     in.clear();

@@ -39,6 +39,10 @@ void prepare_importer(Assimp::Importer& importer, const std::string& path, const
 void check_gltf_document(const std::string& text, const std::string& what, const std::optional<std::string>& bin,
                          const std::filesystem::path& folder);
 
+// Walks a binary FBX file as assimp 5.2's tokenizer walks it, and throws InputError, starting with
+// `what`, for what its reader does not survive: see import_fbx.cpp.
+void check_fbx_binary(const std::string& bytes, const std::string& what);
+
 // Follows assimp 5.2's PLY reader over a PLY file's bytes and throws InputError, starting with
 // `what`, before it would allocate what the file cannot hold (an element count or a list length
 // past the data), read past its own buffer, or run out of data.

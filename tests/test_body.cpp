@@ -787,6 +787,30 @@ TEST(BodyImportErrors, AFailedAssimpAssertionEndsTheImportNotTheProcess) {
   EXPECT_NE(msg.find("its check 'actualPrimitives == numPrimitives' failed"), std::string::npos) << msg;
 }
 
+TEST(BodyImportErrors, AnObjCostingAssimpFarMoreThanItsSizeIsRefused) {
+  // From the review of assimp's OBJ reader: each group switch costs it about 1.1 KB and each
+  // material name 33 KB (gigabytes from a few megabytes), objects are searched one by one and each
+  // mtllib line re-reads its file (minutes from 1 MB), and triangulating a face takes a time that
+  // grows with the square of its corners (74 s for one face of 262,144).
+  const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+  std::string groups;
+  for (int i = 0; i <= 20000; ++i) groups += i % 2 ? "g a\n" : "g b\n";
+  std::string msg = input_error([&] { Body::load(tmp_file("groups.obj", tri + groups)); });
+  EXPECT_NE(msg.find("line 20005 ('g b') is one over the most Kiji reads (20000 groups"), std::string::npos) << msg;
+  std::string materials;
+  for (int i = 0; i <= 1024; ++i) materials += "usemtl m" + std::to_string(i) + "\n";
+  msg = input_error([&] { Body::load(tmp_file("materials.obj", tri + materials)); });
+  EXPECT_NE(msg.find("('usemtl m1024') is one over the most"), std::string::npos) << msg;
+  std::string face = "f";
+  for (int i = 0; i < 1001; ++i) face += " " + std::to_string(1 + i % 3);
+  msg = input_error([&] { Body::load(tmp_file("corners.obj", tri + face + "\n")); });
+  EXPECT_NE(msg.find("has 1001 corners, and Kiji reads 1000 at most"), std::string::npos) << msg;
+  // Many groups within the bound, and material names used again, are read.
+  std::string fine = tri;
+  for (int i = 0; i < 2000; ++i) fine += "g part" + std::to_string(i % 50) + "\nusemtl skin\nf 1 2 3\n";
+  EXPECT_EQ(Body::load(tmp_file("parts.obj", fine)).triangles().size(), 2001u);
+}
+
 TEST(BodyImportErrors, AnObjThatAssimpWouldWritePastIsRefused) {
   // From a review of assimp's OBJ reader: a line of one corner gets no room in its arrays yet moves
   // it on by one, so the next line's corners were written past their end (a heap overrun); a

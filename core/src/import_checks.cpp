@@ -80,6 +80,14 @@ void check_obj_indices(const std::string& path, const std::string& what) {
     }
     text.swap(split);
   }
+  // What assimp builds for each group, object and material name costs hundreds of times its line
+  // (390 times for groups, 2,800 for materials: gigabytes from a few megabytes), it searches its
+  // objects one by one for each name and re-reads a material file for each mtllib line (minutes
+  // from 1 MB), and its triangulation takes a time that grows with the square of a face's corners.
+  constexpr long long kMostGroups = 20000, kMostObjects = 10000, kMostMaterials = 1024, kMostLibraries = 16,
+                      kMostCorners = 1000;
+  long long groups = 0, objects = 0, libraries = 0;
+  std::set<std::string> materials;
   for (int pass = 0; pass < 2; ++pass) {
     std::istringstream in(text);
     long long so_far[3] = {0, 0, 0};
@@ -91,6 +99,16 @@ void check_obj_indices(const std::string& path, const std::string& what) {
       if (at == std::string::npos) continue;
       const std::size_t end = line.find_first_of(" \t\r", at);
       const std::string key = line.substr(at, end == std::string::npos ? std::string::npos : end - at);
+      if (pass == 0) {
+        const bool too_many = (key[0] == 'g' && ++groups > kMostGroups) || (key[0] == 'o' && ++objects > kMostObjects) ||
+                              (key == "mtllib" && ++libraries > kMostLibraries) ||
+                              (key == "usemtl" && materials.insert(line.substr(at)).second &&
+                               static_cast<long long>(materials.size()) > kMostMaterials);
+        if (too_many)
+          fail(number, line, "is one over the most Kiji reads (" + std::to_string(kMostGroups) + " groups, " +
+                                 std::to_string(kMostObjects) + " objects, " + std::to_string(kMostMaterials) +
+                                 " material names, " + std::to_string(kMostLibraries) + " mtllib lines)");
+      }
       // As assimp tells lines apart: by their first characters, not their whole first word ("vtx"
       // is a texture coordinate, "f/" a face).
       const bool texture = key.rfind("vt", 0) == 0, normal = key.rfind("vn", 0) == 0;
@@ -105,6 +123,13 @@ void check_obj_indices(const std::string& path, const std::string& what) {
         if (!std::isdigit(static_cast<unsigned char>(line[i])) && std::string_view(" \t/+-").find(line[i]) == std::string_view::npos)
           fail(number, line, "holds a character (byte " + std::to_string(static_cast<unsigned char>(line[i])) +
                                  ") that is not a number, a slash or a space");
+      {
+        std::istringstream words(line.substr(key.size() + at));
+        long long corners = 0;
+        for (std::string word; words >> word && word[0] != '#';) ++corners;
+        if (corners > kMostCorners)
+          fail(number, line, "has " + std::to_string(corners) + " corners, and Kiji reads " + std::to_string(kMostCorners) + " at most");
+      }
       if (key[0] == 'l') {
         // A line of one corner gets no room in assimp's arrays, yet it moves on by one: the next
         // line's corners are written past their end.

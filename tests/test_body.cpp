@@ -732,6 +732,18 @@ TEST(BodyImportErrors, AGltfIndexNamingNoVertexIsRefused) {
   EXPECT_EQ(Body::load(models + "/glTF2/BoxTextured-glTF/BoxTextured.gltf").triangles().size(), 12u);
 }
 
+// `base` with its first `from` made `to`, written as `name`, is refused as a body with `expected`
+// in the message.
+void expect_edit_refused(const std::string& base, const std::string& name, const std::string& from, const std::string& to,
+                         const std::string& expected) {
+  std::string text = base;
+  ASSERT_NE(text.find(from), std::string::npos) << from;
+  text.replace(text.find(from), from.size(), to);
+  const std::string path = tmp_file(name, text);
+  const std::string msg = input_error([&] { Body::load(path); });
+  EXPECT_NE(msg.find(expected), std::string::npos) << name << ": " << msg;
+}
+
 TEST(BodyImportErrors, AGltfOutsideWhatAssimpReadsSafelyIsRefused) {
   // A review of assimp's glTF 2 importer found it reads accessors, views and buffers by what they
   // declare, checked against the wrong sizes or not at all; follows a node as often as it is listed;
@@ -747,12 +759,7 @@ TEST(BodyImportErrors, AGltfOutsideWhatAssimpReadsSafelyIsRefused) {
     "buffers":[{"byteLength":44,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAABAAIAAAA="}]})";
   EXPECT_EQ(Body::load(tmp_file("good.gltf", good)).triangles().size(), 1u);
   const auto refused = [&](const std::string& name, const std::string& from, const std::string& to, const std::string& expected) {
-    std::string text = good;
-    ASSERT_NE(text.find(from), std::string::npos) << from;
-    text.replace(text.find(from), from.size(), to);
-    const std::string path = tmp_file(name, text);
-    const std::string msg = input_error([&] { Body::load(path); });
-    EXPECT_NE(msg.find(expected), std::string::npos) << name << ": " << msg;
+    expect_edit_refused(good, name, from, to, expected);
   };
   refused("sparse.gltf", R"("count":3,"type":"VEC3"})", R"("count":3,"type":"VEC3","sparse":{"count":1}})",
           "its accessor 0 is sparse, which Kiji does not read");
@@ -843,12 +850,7 @@ TEST(BodyImportErrors, ColladaPartsAssimpDoesNotReadSafelyAreRefused) {
   // needs none of them: they are refused, saying which.
   const std::string dae = kZupCentimetreDae;
   const auto refused = [&](const std::string& name, const std::string& from, const std::string& to, const std::string& expected) {
-    std::string text = dae;
-    ASSERT_NE(text.find(from), std::string::npos) << from;
-    text.replace(text.find(from), from.size(), to);
-    const std::string path = tmp_file(name, text);
-    const std::string msg = input_error([&] { Body::load(path); });
-    EXPECT_NE(msg.find(expected), std::string::npos) << name << ": " << msg;
+    expect_edit_refused(dae, name, from, to, expected);
   };
   const std::string node = R"(<node id="n" name="n"><instance_geometry url="#tet"/></node>)";
   refused("instance.dae", node, R"(<node id="n" name="n"><instance_node url="#n"/></node>)", "it holds node instances");

@@ -1,7 +1,9 @@
 // Body::load: any mesh file assimp reads, welded into one surface in metres with +Y up.
 #include "kiji/body.h"
 
+#include "byte_io.h"
 #include "import_checks.h"
+#include "isolated.h"
 #include "kiji/error.h"
 
 #include <assimp/Importer.hpp>
@@ -348,6 +350,60 @@ void check_file(const std::string& path) {
   if (fs::file_size(path, ec) == 0 && !ec) fail(path, "the file is empty: export the body again");
 }
 
+
+// The whole of a loaded body, report included, as the reading process hands it back.
+std::string encode_loaded(const Body& b) {
+  detail::ByteWriter w;
+  w.str(b.name());
+  const BodyImportReport& r = b.report();
+  for (const std::string* s : {&r.format, &r.up_source, &r.scale_source, &r.front_source}) w.str(*s);
+  w.u8(static_cast<std::uint8_t>(r.up));
+  w.u8(static_cast<std::uint8_t>(r.front));
+  w.f64(r.scale);
+  w.i32(r.smoothing);
+  w.u64(r.meshes_merged);
+  w.u64(r.vertices_before_weld);
+  w.u64(b.vertices().size());
+  for (const Vec3& v : b.vertices()) w.vec3(v);
+  w.u64(b.triangles().size());
+  for (const auto& t : b.triangles())
+    for (int k : t) w.i32(k);
+  return w.take();
+}
+
+// Read as strictly as any outside bytes: the process that wrote them read a hostile file.
+Body decode_loaded(std::string_view bytes, const std::string& path) {
+  detail::ByteReader r(bytes, "the body read from '" + path + "'");
+  std::string name = r.str(4096, "its name");
+  BodyImportReport rep;
+  for (std::string* s : {&rep.format, &rep.up_source, &rep.scale_source, &rep.front_source})
+    *s = r.str(4096, "its report");
+  auto axis = [&] {
+    const std::uint8_t a = r.u8();
+    if (a > static_cast<std::uint8_t>(Axis::NegZ)) r.fail("an unknown axis");
+    return static_cast<Axis>(a);
+  };
+  rep.up = axis();
+  rep.front = axis();
+  rep.scale = r.finite("its scale");
+  rep.smoothing = r.i32();
+  rep.meshes_merged = r.u64();
+  rep.vertices_before_weld = r.u64();
+  const std::uint64_t nv = r.u64();
+  if (nv > r.left() / 24) r.fail("more vertices than bytes");
+  std::vector<Vec3> vertices(nv);
+  for (Vec3& v : vertices) v = r.vec3("a vertex");
+  const std::uint64_t nt = r.u64();
+  if (nt > r.left() / 12) r.fail("more triangles than bytes");
+  std::vector<std::array<int, 3>> triangles(nt);
+  for (auto& t : triangles)
+    for (int& k : t) k = r.i32();
+  if (!r.at_end()) r.fail("bytes are left over");
+  return Body::from_triangles(std::move(vertices), std::move(triangles), std::move(name), std::move(rep));
+}
+
+Body load_here(const std::string& path, const BodyImportOptions& options);
+
 }  // namespace
 
 std::string Body::default_path() { return "/usr/share/assimp/models/Collada/human.zae"; }
@@ -355,6 +411,15 @@ std::string Body::default_path() { return "/usr/share/assimp/models/Collada/huma
 Body Body::load(const std::string& path, const BodyImportOptions& options) {
   check_options(path, options);
   check_file(path);
+  if (!options.limits.isolate) return load_here(path, options);
+  const std::string bytes = detail::run_isolated([&] { return encode_loaded(load_here(path, options)); },
+                                                 options.limits, "cannot load body '" + path + "'");
+  return decode_loaded(bytes, path);
+}
+
+namespace {
+
+Body load_here(const std::string& path, const BodyImportOptions& options) {
   Assimp::Importer importer;
   detail::prepare_importer(importer, path, "cannot load body '" + path + "'");
   // Without normals, uvs and colours, Collada's seam-split corners become identical and weld.
@@ -541,9 +606,10 @@ Body Body::load(const std::string& path, const BodyImportOptions& options) {
     if (!all_finite(p))
       fail(path, "its coordinates overflow when scaled to metres: check the scale and height options");
 
-  Body b = from_triangles(std::move(body.vertices), std::move(body.triangles), fs::path(path).stem().string());
-  b.report_ = std::move(report);
-  return b;
+  return Body::from_triangles(std::move(body.vertices), std::move(body.triangles), fs::path(path).stem().string(),
+                              std::move(report));
 }
+
+}  // namespace
 
 }  // namespace kiji

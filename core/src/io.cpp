@@ -3,6 +3,8 @@
 
 #include "kiji/error.h"
 #include "import_checks.h"
+#include "isolated.h"
+#include "kiji/operation.h"
 #include "png_codec.h"
 
 #include <assimp/Exporter.hpp>
@@ -274,7 +276,11 @@ void export_garment(const Garment& garment, const std::string& path) {
                      exporter.GetErrorString() + "); check the folder is writable");
 }
 
-Garment import_garment(const std::string& path, const Material& material) {
+namespace {
+Garment import_garment_here(const std::string& path, const Material& material);
+}  // namespace
+
+Garment import_garment(const std::string& path, const Material& material, const ImportLimits& limits) {
   material.validate();
   const std::string ext = lower_extension(path);
   if (ext != ".glb" && ext != ".gltf" && ext != ".obj")
@@ -286,7 +292,15 @@ Garment import_garment(const std::string& path, const Material& material) {
     throw InputError("cannot import garment '" + path + "': it is not a regular file");
   if (fs::file_size(path, ec) == 0)
     throw InputError("cannot import garment '" + path + "': the file is empty; export the garment again");
+  if (!limits.isolate) return import_garment_here(path, material);
+  const std::string bytes = detail::run_isolated([&] { return encode_garment(import_garment_here(path, material)); },
+                                                 limits, "cannot import garment '" + path + "'");
+  return decode_garment(bytes);
+}
 
+namespace {
+
+Garment import_garment_here(const std::string& path, const Material& material) {
   Assimp::Importer importer;
   detail::prepare_importer(importer, path, "cannot import garment '" + path + "'");
   const aiScene* scene = nullptr;
@@ -416,5 +430,7 @@ Garment import_garment(const std::string& path, const Material& material) {
   }
   return g;
 }
+
+}  // namespace
 
 }  // namespace kiji

@@ -166,6 +166,7 @@ Pool& pool() {
 }
 
 thread_local double shared_total = 0;
+std::atomic<bool> serial_only{false};
 
 // Counts the loop's time on the calling thread, however it ends.
 class SharedClock {
@@ -188,10 +189,12 @@ int thread_count() {
 
 double shared_seconds() { return shared_total; }
 
+void run_serially() { serial_only.store(true); }
+
 void for_range(int n, int grain, void* context, RangeFn fn) {
   if (n <= 0) return;
   SharedClock clock;
-  if (thread_count() <= 1) {
+  if (thread_count() <= 1 || serial_only.load(std::memory_order_relaxed)) {
     fn(context, 0, n);
     return;
   }
@@ -201,7 +204,7 @@ void for_range(int n, int grain, void* context, RangeFn fn) {
 void for_each(int n, void* context, RangeFn fn) {
   if (n <= 0) return;
   SharedClock clock;
-  if (thread_count() <= 1) {
+  if (thread_count() <= 1 || serial_only.load(std::memory_order_relaxed)) {
     fn(context, 0, n);
     return;
   }

@@ -35,6 +35,10 @@ void for_each(int n, void* context, RangeFn fn);
 // step outside them is the part that more cores cannot shorten.
 double shared_seconds();
 
+// From now on every loop runs on the calling thread: for a forked child process, which has only the
+// thread that forked it.
+void run_serially();
+
 // The first item of piece `piece` of `pieces` contiguous, near-equal pieces of [0, n) (piece
 // `pieces` gives n): pieces of work whose outputs are joined in order, the same for any thread count.
 inline int piece_begin(int n, int piece, int pieces) {

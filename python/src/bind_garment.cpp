@@ -424,15 +424,22 @@ void bind_garment(py::module_& m) {
         "Lays a flat pattern horizontally over the body (x along the shoulders, y front to back),\n"
         "clearance metres above the highest point under it.");
   m.def("load_garment",
-        [](const std::string& path, std::optional<Material> material) {
+        [](const std::string& path, std::optional<Material> material, std::size_t memory_limit_mb, double timeout) {
+          ImportLimits limits;
+          limits.memory_mb = memory_limit_mb;
+          limits.seconds = timeout;
           Garment g;
           {
             py::gil_scoped_release nogil;
-            g = import_garment(path, material_or_default(material));
+            g = import_garment(path, material_or_default(material), limits);
           }
           return std::make_shared<Ref>(std::move(g));
         },
-        py::arg("path"), py::arg("material") = py::none(), "Reads a garment from .glb, .gltf or .obj.");
+        py::arg("path"), py::arg("material") = py::none(), py::kw_only(),
+        py::arg("memory_limit_mb") = ImportLimits{}.memory_mb, py::arg("timeout") = ImportLimits{}.seconds,
+        "Reads a garment from .glb, .gltf or .obj. assimp reads it in a child process: a file that crashes\n"
+        "it, or needs more than memory_limit_mb MiB or timeout seconds, raises ValueError and leaves this\n"
+        "process as it was.");
   m.def("export_garment", [](const Ref& r, const std::string& path) { export_garment(r.get(), path); },
         py::arg("garment"), py::arg("path"), "Writes a .glb (with uv and texture) or .obj (+ .mtl + .png).");
   // The garments to draw and the box a default camera frames (the body and the garments).

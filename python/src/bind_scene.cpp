@@ -169,8 +169,11 @@ void bind_scene(py::module_& m) {
       .def_static(
           "load",
           [](const std::string& path, std::optional<std::string> up, std::optional<std::string> front,
-             std::optional<double> scale, std::optional<double> height, bool smooth, bool recenter) {
+             std::optional<double> scale, std::optional<double> height, bool smooth, bool recenter,
+             std::size_t memory_limit_mb, double timeout) {
             BodyImportOptions o;
+            o.limits.memory_mb = memory_limit_mb;
+            o.limits.seconds = timeout;
             if (up) o.up = parse_axis(*up);
             // "auto": from the file, else the feet; None: as the file has it.
             if (front && *front == "auto") o.find_front = true;
@@ -184,13 +187,16 @@ void bind_scene(py::module_& m) {
           },
           py::arg("path"), py::kw_only(), py::arg("up") = py::none(), py::arg("front") = "auto",
           py::arg("scale") = py::none(), py::arg("height") = py::none(), py::arg("smooth") = true,
-          py::arg("recenter") = true,
+          py::arg("recenter") = true, py::arg("memory_limit_mb") = ImportLimits{}.memory_mb,
+          py::arg("timeout") = ImportLimits{}.seconds,
           "Imports a body with assimp (OBJ, Collada/zae, FBX, glTF, ...): all meshes merged and welded,\n"
           "brought to metres and +Y up, and turned to face +Z. up ('x', '-z', ...), front (the file's axis\n"
           "the body faces; 'auto': what the file says, else the way its feet point; None: as the file has\n"
           "it) and scale (metres per file unit) correct a file whose metadata is missing or wrong; height\n"
           "scales it to that many metres; smooth rounds a low-poly body (Loop subdivision to 1 cm triangles)\n"
-          "so that its points do not spike the cloth. body.report says where each came from.")
+          "so that its points do not spike the cloth. body.report says where each came from. assimp reads\n"
+          "the file in a child process: a file that crashes it, or needs more than memory_limit_mb MiB or\n"
+          "timeout seconds, raises ValueError and leaves this process as it was.")
       .def_static(
           "default", [](std::optional<double> height) {
             BodyImportOptions o;

@@ -1,6 +1,7 @@
 // A body (an avatar) that garments are draped on: imported with assimp, in metres, +Y up.
 #pragma once
 
+#include "kiji/import_limits.h"
 #include "kiji/types.h"
 
 #include <array>
@@ -38,6 +39,8 @@ struct BodyImportOptions {
   bool smooth = false;
   // Put the feet on y = 0 and centre the body over the origin in x and z.
   bool recenter = true;
+  // The memory and time the reading process may take (assimp reads the file in a child process).
+  ImportLimits limits;
 };
 
 // How the import read the file, for the user to check.
@@ -58,7 +61,8 @@ class Body {
  public:
   // Imports every mesh of the file, welds vertices, normalises to metres and +Y up.
   // Throws InputError for a missing or unreadable file, a format assimp cannot read, a file with no
-  // triangles, or non-finite coordinates; the message names the file and the problem.
+  // triangles, or non-finite coordinates, and for a file on which the reading process crashed or
+  // passed options.limits; the message names the file and the problem. This process is unharmed.
   static Body load(const std::string& path, const BodyImportOptions& options = {});
   // A body from triangles already in metres, +Y up (checked like a file); `report` says where
   // they came from.

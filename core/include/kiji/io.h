@@ -2,6 +2,7 @@
 #pragma once
 
 #include "kiji/garment.h"
+#include "kiji/import_limits.h"
 
 #include <string>
 
@@ -14,7 +15,8 @@ void export_garment(const Garment& garment, const std::string& path);
 
 // Reads a garment back (.glb, .gltf or .obj, through assimp): corners that share a position are
 // welded into one vertex, uv is kept per corner, rest lengths are the lengths in the file. Throws
-// InputError for a missing, unreadable or empty file.
-Garment import_garment(const std::string& path, const Material& material = {});
+// InputError for a missing, unreadable or empty file, and for one on which the reading process (a
+// child process, under `limits`) crashed or passed its limits; this process is unharmed.
+Garment import_garment(const std::string& path, const Material& material = {}, const ImportLimits& limits = {});
 
 }  // namespace kiji

@@ -75,6 +75,11 @@ TEST(Cli, BadInputIsAClearErrorAndANonZeroExit) {
       {"drape --model fem", "mass_spring"},
       {"drape --height -2", "height"},
       {"drape --out " + tmp("x.stl"), ".glb or .obj"},
+      {"drape --import-memory 0", "--import-memory expects MiB"},
+      {"drape --import-timeout 0", "--import-timeout expects seconds"},
+      // A body that needs more memory than allowed: refused by the reading process, and said so.
+      {"drape --import-memory 1 --body " + std::string(KIJI_TEST_MODELS) + "/Collada/human.zae",
+       "more than 1 MiB of memory"},
   };
   for (const Case& c : cases) {
     CliRun r = run(c.args);

@@ -34,6 +34,8 @@ const char* kDrapeHelp =
     "  --height METRES          scale the body to this height\n"
     "  --no-smooth              keep a low-poly body's facets (by default it is rounded: Loop\n"
     "                           subdivision to 1 cm triangles, so its points do not spike the cloth)\n"
+    "  --import-memory MB       memory the process reading the body may take (default 4096)\n"
+    "  --import-timeout S       seconds it may take (default 120); raise both for a very large scan\n"
     "  --garment rect:W,H,S     a W x H metre rectangle with vertices S metres apart\n"
     "                           (default rect:1.4,1.0,0.01: 14,241 vertices)\n"
     "  --material NAME          cotton, silk, denim, rubber or tissue (default cotton)\n"
@@ -57,7 +59,7 @@ void make_parent(const std::string& path) {
 
 int drape_command(const std::vector<std::string>& argv) {
   const Args args(argv,
-                  {"--body", "--up", "--front", "--scale", "--height", "--garment", "--material", "--model", "--seconds", "--substeps",
+                  {"--body", "--up", "--front", "--scale", "--height", "--import-memory", "--import-timeout", "--garment", "--material", "--model", "--seconds", "--substeps",
                    "--out", "--picture"},
                   {"--json", "--no-picture", "--no-smooth", "--help", "-h"});
   if (args.has("--help") || args.has("-h")) {
@@ -71,6 +73,16 @@ int drape_command(const std::vector<std::string>& argv) {
   import.smooth = !args.has("--no-smooth");
   if (args.has("--scale")) import.scale = args.number("--scale", 1.0);
   if (args.has("--height")) import.height = args.number("--height", 1.0);
+  if (args.has("--import-memory")) {
+    const double mb = args.number("--import-memory", 4096);
+    if (!(mb >= 1 && mb <= 1e9)) throw UsageError("option --import-memory expects MiB from 1 to 1e9, not '" +
+                                                  args.get("--import-memory", "") + "'");
+    import.limits.memory_mb = static_cast<std::size_t>(mb);
+  }
+  if (args.has("--import-timeout")) {
+    import.limits.seconds = args.number("--import-timeout", 120);
+    if (!(import.limits.seconds > 0)) throw UsageError("option --import-timeout expects seconds above 0");
+  }
   const std::string body_path = args.get("--body", Body::default_path());
   const RectSpec spec = RectSpec::parse(args.get("--garment", "rect:1.4,1.0,0.01"));
   const Material material = Material::preset(args.get("--material", "cotton"));

@@ -18,6 +18,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <tuple>
@@ -295,7 +296,15 @@ Garment import_garment(const std::string& path, const Material& material, const 
   if (!limits.isolate) return import_garment_here(path, material);
   const std::string bytes = detail::run_isolated([&] { return encode_garment(import_garment_here(path, material)); },
                                                  limits, "cannot import garment '" + path + "'");
-  return decode_garment(bytes);
+  // Any size the file held: the counts are still checked against the bytes before anything is allocated.
+  DecodeLimits any_size;
+  any_size.max_vertices = any_size.max_faces = std::numeric_limits<std::uint32_t>::max();
+  any_size.max_string = std::size_t{1} << 24;
+  try {
+    return decode_garment(bytes, any_size);
+  } catch (const InputError& e) {
+    throw InputError("cannot import garment '" + path + "': " + e.what());
+  }
 }
 
 namespace {
@@ -425,7 +434,7 @@ Garment import_garment_here(const std::string& path, const Material& material) {
     aiColor4D c;
     if (first_material->Get(AI_MATKEY_BASE_COLOR, c) == AI_SUCCESS ||
         first_material->Get(AI_MATKEY_COLOR_DIFFUSE, c) == AI_SUCCESS)
-      g.color = Vec3(c.r, c.g, c.b);
+      if (std::isfinite(c.r) && std::isfinite(c.g) && std::isfinite(c.b)) g.color = Vec3(c.r, c.g, c.b);
     g.texture() = read_texture(scene, first_material, path);
   }
   return g;

@@ -1,5 +1,7 @@
 """assimp reads mesh files in a child process: a file that crashes it, or needs more memory or time
 than allowed, is a ValueError, and the script's session goes on as it was."""
+import zipfile
+
 import numpy as np
 import pytest
 
@@ -49,3 +51,30 @@ def test_memory_and_time_limits_stop_a_reader_and_say_which(tmp_path):
         kiji.load_garment(path, timeout=0.001)
     body = kiji.Body.load(path, smooth=False)
     assert len(body.vertices) == 300 * 300
+
+
+def test_a_zipped_collada_file_that_unpacks_without_end_is_stopped_at_the_memory_limit(tmp_path):
+    # assimp 5.2 unpacks a zip entry once for every image that names it: 40 images naming one 10 MB
+    # entry ask for 400 MB from a 12 KB file.
+    images = "".join(f'<image id="i{k}"><init_from>big.png</init_from></image>' for k in range(40))
+    dae = ('<?xml version="1.0"?><COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">'
+           '<asset><unit meter="1"/><up_axis>Y_UP</up_axis></asset>'
+           f'<library_images>{images}</library_images>'
+           '<library_geometries><geometry id="g"><mesh><source id="p">'
+           '<float_array id="pa" count="9">0 0 0 1 0 0 0 1 0</float_array><technique_common>'
+           '<accessor source="#pa" count="3" stride="3"><param name="X" type="float"/>'
+           '<param name="Y" type="float"/><param name="Z" type="float"/></accessor></technique_common></source>'
+           '<vertices id="v"><input semantic="POSITION" source="#p"/></vertices>'
+           '<triangles count="1"><input semantic="VERTEX" source="#v" offset="0"/><p>0 1 2</p></triangles>'
+           '</mesh></geometry></library_geometries>'
+           '<library_visual_scenes><visual_scene id="s"><node id="n"><instance_geometry url="#g"/></node>'
+           '</visual_scene></library_visual_scenes><scene><instance_visual_scene url="#s"/></scene></COLLADA>')
+    path = tmp_path / "unpacks.zae"
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED, compresslevel=9) as z:
+        z.writestr("model.dae", dae)
+        z.writestr("big.png", b"\0" * (10 << 20))
+    assert path.stat().st_size < 64 * 1024
+    with pytest.raises(ValueError, match="needed more than 128 MiB of memory"):
+        kiji.Body.load(str(path), memory_limit_mb=128)
+    # With the memory it asks for, the same file is a body of one triangle.
+    assert len(kiji.Body.load(str(path), memory_limit_mb=2048, smooth=False).triangles) == 1

@@ -350,7 +350,6 @@ void check_file(const std::string& path) {
   if (fs::file_size(path, ec) == 0 && !ec) fail(path, "the file is empty: export the body again");
 }
 
-
 // The whole of a loaded body, report included, as the reading process hands it back.
 std::string encode_loaded(const Body& b) {
   detail::ByteWriter w;

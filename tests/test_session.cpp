@@ -199,11 +199,10 @@ TEST(Session, TwoThreadsShareOneSessionThroughItsLock) {
 
   EXPECT_EQ(vertices_seen, 13u * 13u) << "the script read the whole garment between steps";
   EXPECT_GT(s->steps(), 20u) << "both threads stepped the clock";
-  double lifted = 0;
+  // The corner vertex itself, wherever it went: with no gravity, the cloth flung up keeps drifting for
+  // as many steps as the simulation thread took after the release.
   const Garment& g = s->garment(0);
-  for (Vertex v : g.mesh().vertices())
-    if (g.position(v).head<2>().norm() < 0.05) lifted = std::max(lifted, g.position(v).z());
-  EXPECT_GT(lifted, 0.1) << "the pinched corner followed the pointer up";
+  EXPECT_GT(g.position(Vertex(0)).z(), 0.1) << "the pinched corner followed the pointer up";
   Session again(plugins());
   replay(again, operations_to_save(*s));
   EXPECT_EQ(state(again), state(*s)) << "the log of the shared session replays to the same garment";

@@ -294,10 +294,14 @@ TEST(HapticLoop, ADeviceThatFailsIsReportedAndTheLoopGoesOn) {
 }
 
 TEST(HapticLoop, AQuickPressAndReleaseReachTheSimulationAsTwoChanges) {
-  // A click shorter than a simulation step (16 ms), as a mouse sends one: down for 3 ms.
-  ScriptedDevice device([&](double t) {
+  // A click shorter than a simulation step (16 ms), as a mouse sends one: down for 3 ticks of the
+  // 1 kHz loop. Counted in samples, not read from the clock: a loaded machine can wake the loop
+  // later than a 3 ms window.
+  std::atomic<int> samples{0};
+  ScriptedDevice device([&](double) {
+    const int k = samples++;
     ToolEvent e = at(Vec3(0.1, 0.2, 0.3));
-    e.buttons = (t > 0.020 && t < 0.023) ? kButtonPrimary : 0u;
+    e.buttons = (k >= 20 && k < 23) ? kButtonPrimary : 0u;
     return e;
   });
   HapticLoop loop(device, plain());

@@ -28,6 +28,16 @@ std::shared_ptr<ToolRegistry> plugins() {
 
 const std::string kTmp = KIJI_TEST_TMP;
 
+// Waits up to 5 s for what the servo loop should reach in a fraction of that.
+template <class F>
+bool until(F done) {
+  for (int i = 0; i < 5000; ++i) {
+    if (done()) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  return done();
+}
+
 // The stand-in's configuration for one test, undone after it.
 class StandIn : public ::testing::Test {
  protected:
@@ -176,12 +186,14 @@ TEST_F(StandIn, APinchFeltThroughTheServoLoopInTheVendorsOrder) {
     EXPECT_TRUE(loop.latest_sample().position.isApprox(Vec3(0.5, 0.5, 0.05), 1e-9))
         << "50 mm up on the device is 0.05 m along world +Z: " << loop.latest_sample().position.transpose();
     EXPECT_EQ(loop.latest_sample().buttons, kButtonPrimary);
-    std::this_thread::sleep_for(std::chrono::milliseconds(600));
     // The spring pulls the hand back down to the cloth: 10 N/m * 0.05 m = 0.5 N along world -Z,
-    // which is the device's -Y.
-    EXPECT_TRUE(loop.latest_force().isApprox(Vec3(0, 0, -0.5), 1e-6)) << loop.latest_force().transpose();
+    // which is the device's -Y, once the 0.3 s ramp is over (its ticks counted, however late they came).
+    EXPECT_TRUE(until([&] { return loop.latest_force().isApprox(Vec3(0, 0, -0.5), 1e-6); }))
+        << loop.latest_force().transpose();
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));  // frames held at the spring's force
     s->apply("pinch", at(Vec3(0.5, 0.5, 0.05), Phase::End));
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    EXPECT_TRUE(until([&] { return loop.latest_force() == Vec3::Zero(); })) << loop.latest_force().transpose();
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));  // frames of zero after the release
     const HapticStats stats = loop.stats();
     loop.stop();
     EXPECT_EQ(stats.tool_errors + stats.device_errors, 0u) << stats.last_error;
@@ -226,14 +238,15 @@ TEST_F(StandIn, APinchFeltThroughTheServoLoopInTheVendorsOrder) {
 }
 
 TEST_F(StandIn, ThePensButtonsAndTheirSwap) {
-  play("0 0 0 0 0\n0.05 0 0 0 1\n0.10 0 0 0 2\n0.15 0 0 0 0\n");
+  // Each state held for 0.15 s: more than a loaded machine's stall of the loop.
+  play("0 0 0 0 0\n0.15 0 0 0 1\n0.30 0 0 0 2\n0.45 0 0 0 0\n");
   for (bool swap : {false, true}) {
     PhantomOptions o = options();
     o.swap_buttons = swap;
     PhantomDevice device(o);
     HapticLoop loop(device);
     loop.start();
-    std::this_thread::sleep_for(std::chrono::milliseconds(250));
+    std::this_thread::sleep_for(std::chrono::milliseconds(650));
     loop.stop();
     const std::vector<ToolEvent> changes = loop.take_button_changes();
     ASSERT_EQ(changes.size(), 3u);
@@ -248,7 +261,7 @@ TEST_F(StandIn, ALostConnectionStopsTheServoLoopAndSaysSo) {
   PhantomDevice device(options());
   HapticLoop loop(device);
   loop.start();
-  std::this_thread::sleep_for(std::chrono::milliseconds(400));
+  EXPECT_TRUE(until([&] { return device.status().servo_stopped_by_error; }));
   const PhantomStatus st = device.status();
   EXPECT_TRUE(st.servo_stopped_by_error);
   EXPECT_FALSE(st.servo_running);

@@ -120,13 +120,17 @@ TEST(SessionFile, KillNineAtRandomMomentsLosesNoOperationWhoseCallHadReturned) {
       _exit(127);
     }
     close(fds[1]);
-    std::this_thread::sleep_for(std::chrono::milliseconds(50 + rng() % 600));
+    // The random moment is counted from the child's first line (its session file made): a sanitizer
+    // build can take longer than the shortest wait to start and load its plugins.
+    std::string out;
+    char buf[4096];
+    for (ssize_t n; out.find('\n') == std::string::npos && (n = read(fds[0], buf, sizeof buf)) > 0;)
+      out.append(buf, static_cast<std::size_t>(n));
+    std::this_thread::sleep_for(std::chrono::milliseconds(rng() % 600));
     kill(child, SIGKILL);
     int status = 0;
     waitpid(child, &status, 0);
     ASSERT_TRUE(WIFSIGNALED(status)) << "the child ended by itself (status " << status << ")";
-    std::string out;
-    char buf[4096];
     for (ssize_t n; (n = read(fds[0], buf, sizeof buf)) > 0;) out.append(buf, static_cast<std::size_t>(n));
     close(fds[0]);
     std::size_t returned = 0;

@@ -201,7 +201,8 @@ TEST(SimulationLoop, AToolThatFailsLeavesTheSessionAsItWasAndTheLoopRunning) {
   ScriptedDevice device([](double t) {
     ToolEvent e;
     e.position = Vec3(0.5, 1.0, 0.5);
-    e.buttons = (t > 0.05 && t < 0.1) ? kButtonPrimary : 0u;
+    // Held from 0.05 s on, not for a window a slow start could miss: the tool fails at its begin.
+    e.buttons = t > 0.05 ? kButtonPrimary : 0u;
     return e;
   });
   HapticLoop haptics(device);
@@ -295,7 +296,9 @@ TEST(SimulationLoop, ASharedSessionIsSteppedByItsPeerAndTheDevicesStrokesAreProp
   EXPECT_EQ(strokes[0].events.front().phase, Phase::Begin);
   EXPECT_EQ(strokes[0].events.back().phase, Phase::End);
   EXPECT_GT(strokes[0].events.size(), 5u);
-  EXPECT_GT(shared_frame->time, 0.3) << "the frames follow the clock the peer steps";
+  // The frames stop once the paused cloth is still, so their clock is where the peer's was then.
+  EXPECT_GT(shared_frame->time, 0.0) << "the frames follow the clock the peer steps";
+  EXPECT_LE(shared_frame->time, steps_shared / 60.0 + 1e-9) << "and no clock of the loop's own";
 
   // The peer goes: the session is the user's again, and the loop steps it.
   peer_running = false;

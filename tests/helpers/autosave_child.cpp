@@ -20,6 +20,8 @@ int main(int argc, char** argv) {
   registry->load_plugins({argv[2]});
   Session s(registry);
   Autosave save(s, argv[1]);
+  std::printf("%zu\n", s.journal().operations().size());  // the file exists: the test may kill from now on
+  std::fflush(stdout);
   s.add_garment(make_rectangle(0.6, 0.4, 13, 9));
   for (int k = 0;; ++k) {
     test::design_call(s, k);

@@ -5,6 +5,7 @@
 #include "kiji/session.h"
 
 #include "hd_standin/hd_record.h"
+#include "helpers/wait.h"
 
 #include <gtest/gtest.h>
 
@@ -28,15 +29,7 @@ std::shared_ptr<ToolRegistry> plugins() {
 
 const std::string kTmp = KIJI_TEST_TMP;
 
-// Waits up to 5 s for what the servo loop should reach in a fraction of that.
-template <class F>
-bool until(F done) {
-  for (int i = 0; i < 5000; ++i) {
-    if (done()) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  }
-  return done();
-}
+using test::wait_until;
 
 // The stand-in's configuration for one test, undone after it.
 class StandIn : public ::testing::Test {
@@ -188,11 +181,11 @@ TEST_F(StandIn, APinchFeltThroughTheServoLoopInTheVendorsOrder) {
     EXPECT_EQ(loop.latest_sample().buttons, kButtonPrimary);
     // The spring pulls the hand back down to the cloth: 10 N/m * 0.05 m = 0.5 N along world -Z,
     // which is the device's -Y, once the 0.3 s ramp is over (its ticks counted, however late they came).
-    EXPECT_TRUE(until([&] { return loop.latest_force().isApprox(Vec3(0, 0, -0.5), 1e-6); }))
+    EXPECT_TRUE(wait_until([&] { return loop.latest_force().isApprox(Vec3(0, 0, -0.5), 1e-6); }))
         << loop.latest_force().transpose();
     std::this_thread::sleep_for(std::chrono::milliseconds(200));  // frames held at the spring's force
     s->apply("pinch", at(Vec3(0.5, 0.5, 0.05), Phase::End));
-    EXPECT_TRUE(until([&] { return loop.latest_force() == Vec3::Zero(); })) << loop.latest_force().transpose();
+    EXPECT_TRUE(wait_until([&] { return loop.latest_force() == Vec3::Zero(); })) << loop.latest_force().transpose();
     std::this_thread::sleep_for(std::chrono::milliseconds(100));  // frames of zero after the release
     const HapticStats stats = loop.stats();
     loop.stop();
@@ -261,7 +254,7 @@ TEST_F(StandIn, ALostConnectionStopsTheServoLoopAndSaysSo) {
   PhantomDevice device(options());
   HapticLoop loop(device);
   loop.start();
-  EXPECT_TRUE(until([&] { return device.status().servo_stopped_by_error; }));
+  EXPECT_TRUE(wait_until([&] { return device.status().servo_stopped_by_error; }));
   const PhantomStatus st = device.status();
   EXPECT_TRUE(st.servo_stopped_by_error);
   EXPECT_FALSE(st.servo_running);

@@ -5,6 +5,8 @@
 #include "kiji/session.h"
 #include "kiji/simulation_loop.h"
 
+#include "helpers/wait.h"
+
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -39,11 +41,7 @@ std::shared_ptr<ToolRegistry> plugins() {
 
 void sleep_ms(int ms) { std::this_thread::sleep_for(std::chrono::milliseconds(ms)); }
 
-template <typename P>
-bool wait_until(P done, int ms = 5000) {
-  for (int i = 0; i < ms && !done(); ++i) sleep_ms(1);
-  return done();
-}
+using test::wait_until;
 
 // A 1 m square, vertices 0.05 apart, held at two corners: flat (in the z = 0 plane) it would hang
 // still from them, so it is laid level (in the plane y = 1) and swings down.

@@ -98,6 +98,38 @@ TEST(SessionFile, ACutOffOrDamagedEndIsLeftOutAndCutOffBeforeSavingGoesOn) {
   EXPECT_THROW(load_session(tmp("no_such_file.kiji")), InputError);
 }
 
+// A process killed while it wrote its first operation (the garment, the longest record) leaves a
+// file that ends inside that record: still its session file, holding no operation yet.
+TEST(SessionFile, AFileCutOffInsideItsFirstRecordRecoversAnEmptySessionAndSavingGoesOn) {
+  const std::string whole = tmp("first_cut_whole.kiji");
+  std::filesystem::remove(whole);
+  {
+    Session a(plugins());
+    Autosave save(a, whole);
+    a.add_garment(make_rectangle(0.6, 0.4, 13, 9));
+  }
+  const auto size = std::filesystem::file_size(whole);
+  for (std::uintmax_t keep : {std::uintmax_t(1), std::uintmax_t(4), std::uintmax_t(27), std::uintmax_t(30),
+                              size / 2, size - 1}) {
+    const std::string path = tmp("first_cut.kiji");
+    std::filesystem::copy_file(whole, path, std::filesystem::copy_options::overwrite_existing);
+    std::filesystem::resize_file(path, keep);
+    Recovered r = recover(path, plugins());
+    EXPECT_EQ(r.report.operations, 0u) << keep << " bytes";
+    EXPECT_NE(r.report.damage.find("cut off"), std::string::npos) << keep << " bytes: " << r.report.damage;
+    EXPECT_EQ(r.session->garment_count(), 0u);
+    // The cut-off record is dropped and the session saves into the file again.
+    r.session->add_garment(make_rectangle(0.3, 0.3, 4, 4));
+    r.autosave.reset();
+    SessionFileReport again;
+    EXPECT_EQ(load_session(path, &again).size(), 1u) << keep << " bytes";
+    EXPECT_TRUE(again.damage.empty()) << again.damage;
+  }
+  // A short file of something else is still not a session file.
+  std::ofstream(tmp("short_text.kiji")) << "hi";
+  EXPECT_THROW(load_session(tmp("short_text.kiji")), InputError);
+}
+
 // The user's promise: kill -9 at any moment loses nothing whose call had returned. A child process
 // (tests/helpers/autosave_child.cpp) designs with autosave on and prints, after each call returns,
 // how many operations the session has; the test kills it at a random moment and recovers the file.
@@ -106,7 +138,7 @@ TEST(SessionFile, KillNineAtRandomMomentsLosesNoOperationWhoseCallHadReturned) {
   const int trials = 12;
   std::size_t recovered_total = 0;
   for (int trial = 0; trial < trials; ++trial) {
-    const std::string path = tmp("kill9_" + std::to_string(trial) + ".kiji");
+    const std::string path = tmp("kill9_" + std::to_string(getpid()) + "_" + std::to_string(trial) + ".kiji");
     std::filesystem::remove(path);
     int fds[2];
     ASSERT_EQ(pipe(fds), 0);

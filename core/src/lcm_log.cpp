@@ -2,7 +2,9 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include <algorithm>
 #include <cstdio>
+#include <cstring>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -51,15 +53,21 @@ LcmLog::Read LcmLog::next(std::string& channel, std::string& data, std::string& 
   unsigned char head[kEventHeader];
   const std::size_t got = std::fread(head, 1, kEventHeader, f);
   if (got == 0) return Read::End;
+  // The sync word is checked over the bytes there are, so that a short file of something else is
+  // damaged, not an event cut off.
+  const unsigned char sync[4] = {kLogSync >> 24, (kLogSync >> 16) & 0xff, (kLogSync >> 8) & 0xff, kLogSync & 0xff};
   const std::uint32_t channel_len = got == kEventHeader ? be32(head + 20) : 0;
   const std::uint32_t data_len = got == kEventHeader ? be32(head + 24) : 0;
-  if (got < kEventHeader || std::size_t(at) + kEventHeader + channel_len + data_len > file_size_) {
-    why = "the file ends inside a record (cut off while it was written)";
-    return Read::Damaged;
-  }
-  if (be32(head) != kLogSync || channel_len == 0 || channel_len >= 1000 || data_len > kMaxEventData) {
+  if (std::memcmp(head, sync, std::min<std::size_t>(got, 4)) != 0 ||
+      (got == kEventHeader && (channel_len == 0 || channel_len >= 1000 || data_len > kMaxEventData))) {
     why = "a record does not start where the last one ended (damaged)";
     return Read::Damaged;
+  }
+  if (got < kEventHeader || std::size_t(at) + kEventHeader + channel_len + data_len > file_size_) {
+    channel.assign(channel_len, '\0');
+    channel.resize(std::fread(channel.data(), 1, channel.size(), f));
+    why = "the file ends inside a record (cut off while it was written)";
+    return Read::CutOff;
   }
   std::fseek(f, at, SEEK_SET);
   const lcm::LogEvent* e = impl_->file.readNextEvent();

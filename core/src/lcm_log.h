@@ -23,9 +23,11 @@ class LcmLog {
   // Also to the disk itself (fdatasync).
   void sync();
 
-  enum class Read { Event, End, Damaged };
+  enum class Read { Event, End, CutOff, Damaged };
   // The next event. Its header is checked against the bytes left in the file before LCM reads it,
-  // so a cut-off or damaged event is End/Damaged (with `why`), never a huge allocation.
+  // so a cut-off or damaged event is CutOff/Damaged (with `why`), never a huge allocation. CutOff is
+  // an event that starts as one should and ends with the file; `channel` then holds what of its
+  // channel name the file has.
   Read next(std::string& channel, std::string& data, std::string& why);
   // Where the last event read ends, and the file's size.
   std::size_t position() const;

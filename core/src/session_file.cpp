@@ -99,8 +99,11 @@ std::vector<Operation> load_session(const std::string& path, SessionFileReport* 
   rep.file_bytes = log.file_size();
   std::vector<Operation> ops;
   std::string channel, data;
+  bool first_cut_off = false;  // a session killed while it wrote its first operation
   for (;;) {
     const auto read = log.next(channel, data, rep.damage);
+    first_cut_off = read == detail::LcmLog::Read::CutOff && ops.empty() &&
+                    std::string_view(kSessionChannel).substr(0, channel.size()) == channel;
     if (read != detail::LcmLog::Read::Event) break;
     if (channel == kSessionChannel) {
       Operation op;
@@ -110,7 +113,7 @@ std::vector<Operation> load_session(const std::string& path, SessionFileReport* 
     rep.good_bytes = log.position();
   }
   rep.operations = ops.size();
-  if (ops.empty() && !rep.damage.empty())
+  if (ops.empty() && !rep.damage.empty() && !first_cut_off)
     throw InputError("'" + path + "' is not a Kiji session file: " + rep.damage);
   if (report) *report = rep;
   return ops;

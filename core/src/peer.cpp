@@ -112,6 +112,7 @@ struct Peer::Impl {
   // --- the sequencer's ---
   std::uint64_t next_gseq = 0;
   std::uint64_t announced = 0;  // the largest horizon announced
+  double step_seconds = 0;      // a step's wall time from step to step (a moving mean; 0: unknown)
   std::uint64_t last_exec = 0;
   std::map<std::uint32_t, std::uint64_t> ordered_hw;
   std::map<std::uint32_t, std::map<std::uint64_t, Propose>> waiting;
@@ -356,6 +357,15 @@ struct Peer::Impl {
       }
       ++it;
     }
+  }
+
+  // The steps the sequencer looks ahead: lookahead_steps frames' worth of time, so that steps slower
+  // than a frame (a large garment) do not multiply the latency of every operation. Without a clock
+  // (deterministic runs) always lookahead_steps.
+  int lookahead() const {
+    if (!opt.clock || step_seconds <= 0) return opt.lookahead_steps;
+    const double want = opt.lookahead_steps / session.frame_rate();
+    return std::clamp(static_cast<int>(std::ceil(want / step_seconds - 1e-6)), 1, opt.lookahead_steps);
   }
 
   // The sequencer's clock as last heard (0 if unknown).
@@ -905,13 +915,18 @@ struct Peer::Impl {
       // joined a few frames late would apply every order those frames after the others, for good.
       const bool behind = !seq && sequencer_clock() > s;
       if (opt.real_time && !behind && now + 1e-9 < next_step_time) break;
+      const double step_began = opt.clock ? opt.clock() : 0;
       session.step(this);
+      if (opt.clock) {
+        const double took = std::max(opt.clock() - step_began, 1.0 / session.frame_rate());
+        step_seconds = step_seconds > 0 ? 0.75 * step_seconds + 0.25 * took : took;
+      }
       send_chunks();  // a snapshot's chunks go out between steps, not only once a tick
       if (opt.real_time)
         next_step_time = behind ? now + 1.0 / session.frame_rate()
                                 : std::max(next_step_time + 1.0 / session.frame_rate(), now - 0.25);
       if (seq) {
-        announced = std::max(announced, session.steps() + static_cast<std::uint64_t>(opt.lookahead_steps));
+        announced = std::max(announced, session.steps() + static_cast<std::uint64_t>(lookahead()));
         if (stop_at) announced = std::min(announced, std::max(stop_at, last_exec));
         heartbeat();
       }

@@ -43,6 +43,7 @@ struct PeerOptions {
   bool host = false;           // start the shared session (its first sequencer) with this session's state
   // Steps the sequencer looks ahead: an operation applies at least this many steps after the
   // sequencer's clock when it was ordered. More hides more network jitter; each is a frame of latency.
+  // With a clock, steps slower than a frame look ahead as far in time (fewer steps, at least one).
   int lookahead_steps = 2;
   int hash_interval = 30;        // steps between state hashes
   int max_lag_steps = 6;         // how far the sequencer's clock may run ahead of the slowest peer

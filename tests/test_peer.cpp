@@ -440,3 +440,44 @@ TEST(Peers, StepsSlowerThanAFrameLookAheadAsFarInTimeNotInSteps) {
   EXPECT_EQ(steps_to_apply(0.001), 3u) << "steps faster than a frame: as before";
   EXPECT_EQ(steps_to_apply(0.05), 2u) << "steps of three frames: one step ahead covers two frames";
 }
+
+// A joiner that lost many of a large state's chunks asks for all of them in one round (requests
+// of 200 chunks each), so it has the state one round trip later, not a round for every 200.
+TEST(Peers, AJoinerAsksForEveryLostChunkOfALargeStateInOneRound) {
+  // Messages arrive in the order they were sent (a burst shuffled by random delays would run past
+  // the 64-message replay window, which a paced sender on a real network does not).
+  SimNetwork::Faults in_order;
+  in_order.min_delay = in_order.max_delay = 0.001;
+  Group g(7, in_order, 2);
+  {
+    Session& s = *g.nodes[0].session;
+    host_garment(s);
+    Garment big = make_rectangle(1.0, 1.0, 130, 130);  // a snapshot of about 800 chunks
+    big.transform(Eigen::Affine3d(Eigen::Translation3d(-0.5, 0.02, 1.0)));
+    s.add_garment(big);
+  }
+  g.start(0);
+  g.run_until(0.1);
+  g.start(1);
+  // Three of every four chunk-sized messages to the joiner are lost until it first asks again.
+  std::size_t large = 0, dropped = 0;
+  double first_request = -1, had_state = -1;
+  while (g.net.now() < 3.0 && had_state < 0) {
+    g.net.set_now(g.net.now() + 0.001);
+    g.net.deliver([&](int node, const std::string& bytes) {
+      if (node == 1 && first_request < 0 && bytes.size() > 900 && large++ % 4 != 0) {
+        ++dropped;
+        return;
+      }
+      g.nodes[node].peer->receive(bytes, g.net.now());
+    });
+    for (int i : {0, 1}) g.nodes[i].peer->tick(g.net.now());
+    if (first_request < 0 && g.nodes[1].peer->stats().chunks_asked > 0) first_request = g.net.now();
+    if (g.nodes[1].peer->joined()) had_state = g.net.now();
+  }
+  ASSERT_GT(dropped, 400u) << "the state was too small to need more than two requests of 200 chunks";
+  ASSERT_GT(had_state, 0) << "the joiner never had the state";
+  EXPECT_LT(had_state - first_request, 0.025) << "the lost chunks came in more than one round of requests";
+  EXPECT_EQ(g.nodes[1].peer->stats().chunks_asked, dropped) << "the joiner asked for each lost chunk once";
+  EXPECT_EQ(g.nodes[0].peer->stats().chunks_resent, dropped) << "each lost chunk was sent again once";
+}

@@ -219,6 +219,8 @@ int peer_command(const std::vector<std::string>& argv) {
                {"bytes_received", st.bytes_received},
                {"nacks_sent", st.nacks_sent},
                {"resent", st.resent},
+               {"chunks_asked", st.chunks_asked},
+               {"chunks_resent", st.chunks_resent},
                {"heals", st.heals},
                {"elections", st.elections},
                {"dropped", st.dropped},

@@ -24,6 +24,11 @@ constexpr std::size_t kKeepApplied = 8192;     // applied orders kept to repair 
 constexpr std::size_t kMaxNackRange = 64;
 constexpr std::size_t kChunkBurst = 4096;      // blob chunks handed to the transport a tick at most
 constexpr int kMaxStepsPerTick = 8;            // catching up, a tick steps at most this many
+constexpr int kMaxNacksARound = 16;             // requests for one blob's missing chunks at once
+// After shipping a state, a sequencer whose steps are slow (two frames or more) waits this long
+// before its next step, to hear and answer the joiner's requests for lost chunks (a step later
+// would be tenths of a second on a large garment).
+constexpr double kRepairWindow = 0.15;
 
 ToolEvent cancel_event(double time) {
   ToolEvent e;
@@ -113,6 +118,7 @@ struct Peer::Impl {
   std::uint64_t next_gseq = 0;
   std::uint64_t announced = 0;  // the largest horizon announced
   double step_seconds = 0;      // a step's wall time from step to step (a moving mean; 0: unknown)
+  double shipped_at = -1;       // when a state was last shipped to a joining peer (on opt.clock)
   std::uint64_t last_exec = 0;
   std::map<std::uint32_t, std::uint64_t> ordered_hw;
   std::map<std::uint32_t, std::map<std::uint64_t, Propose>> waiting;
@@ -605,6 +611,7 @@ struct Peer::Impl {
       if (i < it->second.count && queued.insert({n.hash, i}).second) {
         outgoing.emplace_front(n.hash, i);
         ++stats.resent;
+        ++stats.chunks_resent;
       }
   }
 
@@ -843,6 +850,7 @@ struct Peer::Impl {
     const std::string packed = deflate_bytes(w.take());
     const std::uint64_t hash = hash_bytes(packed);
     publish_blob(hash, packed);
+    if (opt.clock) shipped_at = opt.clock();  // the chunks leave now, late in a tick that may have stepped
     for (std::uint32_t t : targets) {
       StateOffer s{t, gseq, hash, static_cast<std::uint32_t>(packed.size())};
       offers[t] = {s, session.steps(), now};
@@ -915,6 +923,9 @@ struct Peer::Impl {
       // joined a few frames late would apply every order those frames after the others, for good.
       const bool behind = !seq && sequencer_clock() > s;
       if (opt.real_time && !behind && now + 1e-9 < next_step_time) break;
+      if (seq && opt.clock && step_seconds >= 2.0 / session.frame_rate() && shipped_at >= 0 &&
+          opt.clock() - shipped_at < kRepairWindow)
+        break;
       const double step_began = opt.clock ? opt.clock() : 0;
       session.step(this);
       if (opt.clock) {
@@ -953,18 +964,28 @@ struct Peer::Impl {
       ++stats.nacks_sent;
       last_nack = now;
     }
-    // Chunks that stopped coming are asked for.
+    // Chunks that stopped coming are asked for, up to kMaxNacksARound messages of 200 at once: a
+    // sender busy with a slow step answers what it heard since, and a request for only the first
+    // 200 of a large snapshot's losses made a round of repairs for every 200 (a step each).
     for (auto& [hash, b] : blobs) {
       if (b.complete || b.count == 0 || now - b.last_chunk < 0.03 || (b.asked >= 0 && now - b.asked < 0.03)) continue;
       BlobNack n;
       n.hash = hash;
-      for (std::uint32_t i = 0; i < b.count && n.missing.size() < 200; ++i)
+      int messages = 0;
+      for (std::uint32_t i = 0; i < b.count && messages < kMaxNacksARound; ++i) {
         if (!b.have[i]) n.missing.push_back(i);
-      send(kBlobNack, encode(n));
+        if (n.missing.size() == kMaxNackedChunks || (i + 1 == b.count && !n.missing.empty())) {
+          send(kBlobNack, encode(n));
+          stats.chunks_asked += n.missing.size();
+          n.missing.clear();
+          ++messages;
+          ++stats.nacks_sent;
+        }
+      }
       b.asked = now;
-      ++stats.nacks_sent;
     }
 
+    const bool was_joined = joined;
     if (!joined) {
       if (join_asked < 0 || now - join_asked > 0.03) {
         send(kJoin, encode_name(opt.name));
@@ -973,7 +994,10 @@ struct Peer::Impl {
       try_load_offer();
     }
     if (!seq && joined) elect();
-    if (joined) advance();
+    send_chunks();  // chunks asked for again go out now, not after the next (maybe slow) step
+    // A peer that has just loaded the shared state lets its user see it before it steps on: on a
+    // large garment a step is tenths of a second more to wait.
+    if (joined && was_joined) advance();
 
     // A clock stopped for good (at the shared stop) reports its hash there, again now and then
     // (a report can be lost, and the others wait for it to say they agree).

@@ -174,7 +174,7 @@ BlobNack decode_blob_nack(std::string_view body) {
   ByteReader r(body, "chunk request");
   BlobNack n;
   n.hash = r.u64();
-  const std::size_t k = r.count(200, 4, "the number of chunks");
+  const std::size_t k = r.count(kMaxNackedChunks, 4, "the number of chunks");
   for (std::size_t i = 0; i < k; ++i) n.missing.push_back(r.u32());
   done(r);
   return n;

@@ -88,9 +88,10 @@ constexpr std::uint32_t kMaxBlobBytes = 512u << 20;
 std::string encode(const BlobChunk& c);
 BlobChunk decode_blob_chunk(std::string_view body);
 
+constexpr std::size_t kMaxNackedChunks = 200;  // chunks one request names
 struct BlobNack {
   std::uint64_t hash = 0;
-  std::vector<std::uint32_t> missing;  // at most 200
+  std::vector<std::uint32_t> missing;  // at most kMaxNackedChunks
 };
 std::string encode(const BlobNack& n);
 BlobNack decode_blob_nack(std::string_view body);

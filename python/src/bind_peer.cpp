@@ -193,6 +193,8 @@ leaving a `with` block) gives the session back to its users.)doc");
           d["dropped"] = s.dropped;
           d["nacks_sent"] = s.nacks_sent;
           d["resent"] = s.resent;
+          d["chunks_asked"] = s.chunks_asked;
+          d["chunks_resent"] = s.chunks_resent;
           d["orders_applied"] = s.orders_applied;
           d["stalls"] = s.stalls;
           d["checkpoints"] = s.checkpoints;

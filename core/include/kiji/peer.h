@@ -110,6 +110,8 @@ struct PeerStats {
   std::uint64_t sent = 0, received = 0, bytes_sent = 0, bytes_received = 0;
   std::map<std::string, std::uint64_t> dropped;  // by reason: forged, replayed, malformed, ...
   std::uint64_t nacks_sent = 0, resent = 0, orders_applied = 0, stalls = 0;
+  // Of those: the snapshot chunks this peer asked for again, and those it sent again when asked.
+  std::uint64_t chunks_asked = 0, chunks_resent = 0;
   std::uint64_t checkpoints = 0, heals = 0, elections = 0;
 };
 

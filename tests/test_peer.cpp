@@ -88,6 +88,24 @@ void host_garment(Session& s) {
   s.set_solver_params(p);
 }
 
+// A host alone on a simulated network. With `reading`, its clock moves that many seconds between
+// readings (a step's wall time); without, it has no clock (a deterministic run).
+struct LoneHost {
+  Session session{plugins()};
+  SimNetwork net{1, {}};
+  double spent = 0;
+  std::unique_ptr<Peer> peer;
+  explicit LoneHost(std::optional<double> reading) {
+    host_garment(session);
+    net.add_node();
+    PeerOptions o;
+    o.key = kKey;
+    o.host = true;
+    if (reading) o.clock = [this, r = *reading] { return net.now() + (spent += r); };
+    peer = std::make_unique<Peer>(session, net.port(0), o);
+  }
+};
+
 // Whether some vertex is held by two users, in a peer's lease table.
 bool doubly_held(const Peer& p) {
   std::map<std::pair<std::size_t, std::uint32_t>, UserId> owner;
@@ -390,20 +408,12 @@ TEST(Peers, ASharedSessionsClockIsThePeersAndBadOptionsAreRefused) {
 // on the peer's clock, where without a clock it steps as far as it may.
 TEST(Peers, APeerBehindItsClockStepsAFrameATimeSoItsMessagesAreNotHeldUp) {
   auto steps_in_one_tick_after_a_stall = [](bool with_clock) {
-    Session s(plugins());
-    host_garment(s);
-    SimNetwork net(1, {});
-    net.add_node();
-    PeerOptions o;
-    o.key = kKey;
-    o.host = true;
-    double spent = 0;  // the clock moves 30 ms between readings: a step longer than a frame
-    if (with_clock) o.clock = [&] { return net.now() + (spent += 0.03); };
-    Peer p(s, net.port(0), o);
-    for (int ms = 0; ms <= 200; ++ms) p.tick(ms * 0.001);
-    const std::uint64_t before = s.steps();
-    p.tick(0.5);  // 300 ms stalled: 18 frames behind
-    return s.steps() - before;
+    // The clock moves 30 ms between readings: a step longer than a frame.
+    LoneHost h(with_clock ? std::optional<double>(0.03) : std::nullopt);
+    for (int ms = 0; ms <= 200; ++ms) h.peer->tick(ms * 0.001);
+    const std::uint64_t before = h.session.steps();
+    h.peer->tick(0.5);  // 300 ms stalled: 18 frames behind
+    return h.session.steps() - before;
   };
   EXPECT_EQ(steps_in_one_tick_after_a_stall(true), 1u);
   EXPECT_GT(steps_in_one_tick_after_a_stall(false), 1u);
@@ -416,16 +426,9 @@ TEST(Peers, StepsSlowerThanAFrameLookAheadAsFarInTimeNotInSteps) {
   // The steps from an operation made on the host to the step it applied at, with the host's clock
   // moving `reading` seconds between readings (a step's wall time), or with no clock.
   auto steps_to_apply = [](std::optional<double> reading) {
-    Session s(plugins());
-    host_garment(s);
-    SimNetwork net(1, {});
-    net.add_node();
-    PeerOptions o;
-    o.key = kKey;
-    o.host = true;
-    double spent = 0;
-    if (reading) o.clock = [&, r = *reading] { return net.now() + (spent += r); };
-    Peer p(s, net.port(0), o);
+    LoneHost h(reading);
+    Session& s = h.session;
+    Peer& p = *h.peer;
     int ms = 0;
     for (; ms <= 300; ++ms) p.tick(ms * 0.001);
     const std::uint64_t made = s.steps();

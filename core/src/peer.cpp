@@ -365,6 +365,9 @@ struct Peer::Impl {
     }
   }
 
+  // Steps of two frames or more (a large garment), as this peer's clock measures them.
+  bool slow_steps() const { return opt.clock && step_seconds >= 2.0 / session.frame_rate(); }
+
   // The steps the sequencer looks ahead: lookahead_steps frames' worth of time, so that steps slower
   // than a frame (a large garment) do not multiply the latency of every operation. Without a clock
   // (deterministic runs) always lookahead_steps.
@@ -923,9 +926,7 @@ struct Peer::Impl {
       // joined a few frames late would apply every order those frames after the others, for good.
       const bool behind = !seq && sequencer_clock() > s;
       if (opt.real_time && !behind && now + 1e-9 < next_step_time) break;
-      if (seq && opt.clock && step_seconds >= 2.0 / session.frame_rate() && shipped_at >= 0 &&
-          opt.clock() - shipped_at < kRepairWindow)
-        break;
+      if (seq && slow_steps() && shipped_at >= 0 && opt.clock() - shipped_at < kRepairWindow) break;
       const double step_began = opt.clock ? opt.clock() : 0;
       session.step(this);
       if (opt.clock) {

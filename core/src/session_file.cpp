@@ -99,11 +99,9 @@ std::vector<Operation> load_session(const std::string& path, SessionFileReport* 
   rep.file_bytes = log.file_size();
   std::vector<Operation> ops;
   std::string channel, data;
-  bool first_cut_off = false;  // a session killed while it wrote its first operation
+  detail::LcmLog::Read read;
   for (;;) {
-    const auto read = log.next(channel, data, rep.damage);
-    first_cut_off = read == detail::LcmLog::Read::CutOff && ops.empty() &&
-                    std::string_view(kSessionChannel).substr(0, channel.size()) == channel;
+    read = log.next(channel, data, rep.damage);
     if (read != detail::LcmLog::Read::Event) break;
     if (channel == kSessionChannel) {
       Operation op;
@@ -113,6 +111,9 @@ std::vector<Operation> load_session(const std::string& path, SessionFileReport* 
     rep.good_bytes = log.position();
   }
   rep.operations = ops.size();
+  // A session killed while it wrote its first operation: the file ends inside that record.
+  const bool first_cut_off = read == detail::LcmLog::Read::CutOff && ops.empty() &&
+                             std::string_view(kSessionChannel).substr(0, channel.size()) == channel;
   if (ops.empty() && !rep.damage.empty() && !first_cut_off)
     throw InputError("'" + path + "' is not a Kiji session file: " + rep.damage);
   if (report) *report = rep;

@@ -50,6 +50,7 @@ Body Body::from_triangles(std::vector<Vec3> vertices, std::vector<std::array<int
   Body b;
   b.name_ = std::move(name);
   b.vertices_ = std::move(vertices);
+  for (const auto& v : b.vertices_) b.bounds_.extend(v);
   b.triangles_ = std::move(triangles);
   b.report_ = std::move(report);
   static std::atomic<std::uint64_t> last_id{0};
@@ -57,11 +58,6 @@ Body Body::from_triangles(std::vector<Vec3> vertices, std::vector<std::array<int
   return b;
 }
 
-Box3 Body::bounds() const {
-  Box3 box;
-  for (const auto& v : vertices_) box.extend(v);
-  return box;
-}
 
 Vec3 Body::triangle_normal(std::size_t t) const {
   const auto& tri = triangles_[t];

@@ -75,7 +75,7 @@ class Body {
   const std::vector<Vec3>& vertices() const { return vertices_; }
   const std::vector<std::array<int, 3>>& triangles() const { return triangles_; }
   const BodyImportReport& report() const { return report_; }
-  Box3 bounds() const;
+  const Box3& bounds() const { return bounds_; }
   double height() const { return bounds().sizes().y(); }
   // Outward unit normal of triangle t.
   Vec3 triangle_normal(std::size_t t) const;
@@ -88,6 +88,7 @@ class Body {
   std::vector<Vec3> vertices_;
   std::vector<std::array<int, 3>> triangles_;
   BodyImportReport report_;
+  Box3 bounds_;  // kept: a body does not change, and a point's test against it asks for them
   std::uint64_t geometry_id_ = 0;  // 0: the empty body
 };
 

@@ -7,6 +7,7 @@
 #include "kiji/peer.h"
 #include "kiji/session.h"
 #include "peer_sim.h"
+#include "peer_wire.h"
 #include "test_shapes.h"
 #include "test_strokes.h"
 
@@ -378,6 +379,27 @@ TEST(Peers, ForgedReplayedCutOrOversizedMessagesAreDroppedAndCounted) {
   g.run_until(2.0);
   EXPECT_EQ(g.nodes[1].session->steps(), 90u);
   EXPECT_EQ(victim.state_hash(), g.nodes[0].peer->state_hash());
+}
+
+// A burst of repaired chunks can arrive shuffled by hundreds of messages: each is taken once, and
+// only a copy, or a message older than the replay window, is dropped as a replay.
+TEST(Peers, MessagesReorderedByHundredsAreTakenOnceAndCopiesAreReplays) {
+  using kiji::detail::PeerWire;
+  using kiji::detail::WireVerdict;
+  PeerWire sender(kKey, 7), receiver(kKey, 8);
+  std::vector<std::string> sent;
+  for (int k = 0; k < 2600; ++k) sent.push_back(sender.seal(1, 0, "chunk " + std::to_string(k)));
+  kiji::detail::PeerEnvelope out;
+  ASSERT_EQ(receiver.open(sent[1199], out), WireVerdict::Ok);
+  // The 700 before it, last first: 700 messages late, each once.
+  for (int k = 1198; k >= 499; --k) ASSERT_EQ(receiver.open(sent[k], out), WireVerdict::Ok) << "message " << k;
+  EXPECT_EQ(out.body, "chunk 499");
+  for (int k : {1199, 1198, 800, 499}) EXPECT_EQ(receiver.open(sent[k], out), WireVerdict::Replayed) << k;
+  EXPECT_EQ(receiver.open(sent[100], out), WireVerdict::Replayed) << "older than the window: cannot be told from a replay";
+  // Onwards past the window's end and around it, with gaps filled in late: none is taken for another.
+  for (int k = 1200; k < 2600; k += 2) ASSERT_EQ(receiver.open(sent[k], out), WireVerdict::Ok) << k;
+  for (int k = 2599; k > 2600 - 1000; k -= 2) ASSERT_EQ(receiver.open(sent[k], out), WireVerdict::Ok) << k;
+  for (int k = 2000; k < 2600; ++k) ASSERT_EQ(receiver.open(sent[k], out), WireVerdict::Replayed) << k;
 }
 
 TEST(Peers, ASharedSessionsClockIsThePeersAndBadOptionsAreRefused) {

@@ -791,10 +791,15 @@ struct Peer::Impl {
       case PeerOp::Release: leases.erase(user); break;
       case PeerOp::Checkpoint: {
         refused.clear();
+        // With no stroke to cancel, the checkpoint's state is the session as it is now: the
+        // sequencer ships it before its own rebuild, which the joiner need not wait for.
+        const bool ship_first = sequencer == id && session.active_users().empty();
+        if (ship_first) ship_state(gseq, pop.targets);
         session.perform({session.steps(), 0, op::Checkpoint{}});
+        if (ship_first && opt.clock) shipped_at = opt.clock();  // the repair window starts when it is free again
         ++stats.checkpoints;
         for (std::uint32_t t : pop.targets) checkpoint_for.erase(t);
-        if (sequencer == id) ship_state(gseq, pop.targets);
+        if (sequencer == id && !ship_first) ship_state(gseq, pop.targets);
         if (std::find(pop.targets.begin(), pop.targets.end(), id) != pop.targets.end() && sequencer != id) {
           joined = false;  // this peer's state was the wrong one: it waits for the sequencer's
           have_offer = false;

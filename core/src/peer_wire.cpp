@@ -15,7 +15,6 @@ namespace {
 // epoch (8), size (4), body, mac (32).
 constexpr std::size_t kHeader = 8 + 2 + 8 + 4 + 8 + 1 + 8 + 4;
 constexpr std::size_t kMac = 32;
-constexpr int kWindow = 64;
 
 std::uint64_t be(const unsigned char* p, int n) {
   std::uint64_t v = 0;
@@ -89,14 +88,16 @@ WireVerdict PeerWire::open(std::string_view bytes, PeerEnvelope& out) {
   const auto seq = static_cast<std::uint64_t>(m.seq);
   Window& w = windows_[sender];
   if (seq > w.highest || w.highest == 0) {
-    const std::uint64_t shift = w.highest == 0 ? kWindow : seq - w.highest;
-    w.seen = shift >= kWindow ? 0 : w.seen << shift;
-    w.seen |= 1;
+    // The numbers skipped over are not seen yet (their bits last held numbers a window older).
+    if (w.highest == 0 || seq - w.highest >= kReplayWindow)
+      w.seen.fill(0);
+    else
+      for (std::uint64_t s = w.highest + 1; s < seq; ++s) w.mark(s, false);
+    w.mark(seq, true);
     w.highest = seq;
   } else {
-    const std::uint64_t back = w.highest - seq;
-    if (back >= kWindow || (w.seen >> back) & 1) return WireVerdict::Replayed;
-    w.seen |= std::uint64_t(1) << back;
+    if (w.highest - seq >= kReplayWindow || w.has(seq)) return WireVerdict::Replayed;
+    w.mark(seq, true);
   }
   out.session = m.session;
   out.sender = sender;

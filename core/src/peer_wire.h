@@ -47,9 +47,17 @@ class PeerWire {
   std::int64_t session_ = 0;
   std::uint32_t self_;
   std::uint64_t next_seq_;
+  // The last kReplayWindow sequence numbers of a sender: wide enough for a burst of repairs
+  // (hundreds of chunks) reordered on the way, which a 64-message window took for replays.
+  static constexpr std::uint64_t kReplayWindow = 1024;
   struct Window {
     std::uint64_t highest = 0;
-    std::uint64_t seen = 0;  // bit i: highest - i was seen
+    std::array<std::uint64_t, kReplayWindow / 64> seen{};  // bit s % kReplayWindow: s was seen
+    bool has(std::uint64_t s) const { return (seen[(s / 64) % seen.size()] >> (s % 64)) & 1; }
+    void mark(std::uint64_t s, bool on) {
+      std::uint64_t& word = seen[(s / 64) % seen.size()];
+      word = on ? word | (std::uint64_t(1) << (s % 64)) : word & ~(std::uint64_t(1) << (s % 64));
+    }
   };
   std::map<std::uint32_t, Window> windows_;
 };

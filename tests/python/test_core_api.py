@@ -41,8 +41,9 @@ def test_a_solver_of_ones_own_steps_a_garment_with_forces_and_attachments():
     assert g.velocities[centre, 2] > v0[centre, 2]  # the force acted for that step
     m = solver.measure()
     assert m.vertices == 121 and m.max_strain > 0
-    # The pushed vertex's edges went past the strain limit in the step, and the limit held them.
-    assert solver.last_step().strain_limited > 0 and m.max_strain <= solver.params.strain_limit
+    # The pushed vertex's edges went past the strain limit in the step, and the limit held them (an
+    # edge projected to the limit is there to within rounding).
+    assert solver.last_step().strain_limited > 0 and m.max_strain <= solver.params.strain_limit + 1e-12
     with pytest.raises(kiji.InputError, match="does not exist"):
         solver.add_attachment(500, (0, 0, 0), 1.0)
     with pytest.raises(kiji.InputError, match="stiffness"):

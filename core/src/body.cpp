@@ -58,7 +58,6 @@ Body Body::from_triangles(std::vector<Vec3> vertices, std::vector<std::array<int
   return b;
 }
 
-
 Vec3 Body::triangle_normal(std::size_t t) const {
   const auto& tri = triangles_[t];
   const Vec3 n = (vertices_[tri[1]] - vertices_[tri[0]]).cross(vertices_[tri[2]] - vertices_[tri[0]]);

@@ -469,8 +469,8 @@ TEST(Peers, StepsSlowerThanAFrameLookAheadAsFarInTimeNotInSteps) {
 // A joiner that lost many of a large state's chunks asks for all of them in one round (requests
 // of 200 chunks each), so it has the state one round trip later, not a round for every 200.
 TEST(Peers, AJoinerAsksForEveryLostChunkOfALargeStateInOneRound) {
-  // Messages arrive in the order they were sent (a burst shuffled by random delays would run past
-  // the 64-message replay window, which a paced sender on a real network does not).
+  // Messages arrive in the order they were sent, so that what stands between the joiner and the
+  // state is the loss made here alone (reordering is MessagesReorderedByHundreds...'s test).
   SimNetwork::Faults in_order;
   in_order.min_delay = in_order.max_delay = 0.001;
   Group g(7, in_order, 2);

@@ -796,10 +796,11 @@ struct Peer::Impl {
         const bool ship_first = sequencer == id && session.active_users().empty();
         if (ship_first) ship_state(gseq, pop.targets);
         session.perform({session.steps(), 0, op::Checkpoint{}});
-        if (ship_first && opt.clock) shipped_at = opt.clock();  // the repair window starts when it is free again
         ++stats.checkpoints;
         for (std::uint32_t t : pop.targets) checkpoint_for.erase(t);
         if (sequencer == id && !ship_first) ship_state(gseq, pop.targets);
+        // The repair window starts once the chunks are out and this peer's rebuild is done.
+        if (sequencer == id && opt.clock) shipped_at = opt.clock();
         if (std::find(pop.targets.begin(), pop.targets.end(), id) != pop.targets.end() && sequencer != id) {
           joined = false;  // this peer's state was the wrong one: it waits for the sequencer's
           have_offer = false;
@@ -858,7 +859,6 @@ struct Peer::Impl {
     const std::string packed = deflate_bytes(w.take());
     const std::uint64_t hash = hash_bytes(packed);
     publish_blob(hash, packed);
-    if (opt.clock) shipped_at = opt.clock();  // the chunks leave now, late in a tick that may have stepped
     for (std::uint32_t t : targets) {
       StateOffer s{t, gseq, hash, static_cast<std::uint32_t>(packed.size())};
       offers[t] = {s, session.steps(), now};

@@ -1,9 +1,12 @@
 // Sleeping: cloth at rest is held still and not computed, and wakes whenever something disturbs it.
 #include "kiji/error.h"
+#include "kiji/operation.h"
 #include "kiji/pattern.h"
+#include "kiji/session.h"
 #include "kiji/solver.h"
 #include "kiji/topology.h"
 
+#include "test_errors.h"
 #include "test_shapes.h"
 
 #include <gtest/gtest.h>
@@ -207,6 +210,66 @@ TEST(Sleep, ANewSolverFindsTheClothAsleepWhereItSleptAndWakesOnlyWhatChanged) {
     m.friction = 0.9;
     copy.set_material(m);
     EXPECT_EQ(asleep_after_a_step(floor, copy), 0u);
+  }
+}
+
+TEST(Sleep, AGarmentsBytesCarryWhereItSleeps) {
+  // A settled garment added to a session (which keeps it as its bytes give it back, as a replay or
+  // a peer does), or brought back by a checkpoint, sleeps on: it costs nothing until touched.
+  const Body floor = test::make_floor();
+  Garment g = cloth_on_floor();
+  Solver first;
+  first.set_body(&floor);
+  ASSERT_NO_FATAL_FAILURE(sleep_on(first, g));
+  const std::size_t all = g.mesh().number_of_vertices();
+  {
+    Garment copy = decode_garment(encode_garment(g));
+    EXPECT_EQ(asleep_after_a_step(floor, copy), all) << "decoded, the whole cloth sleeps from the first step";
+    EXPECT_EQ(largest_gap(copy, g), 0.0);
+    EXPECT_EQ(encode_garment(copy), encode_garment(g)) << "its bytes again give the same bytes";
+  }
+  {
+    Session s;
+    s.set_body(floor);
+    s.add_garment(g);
+    s.step();
+    EXPECT_EQ(s.solver(0).measure(s.garment(0)).sleeping, all) << "added to a session";
+    s.perform({s.steps(), 0, op::Checkpoint{}});  // every peer's state, encoded and loaded again
+    s.step();
+    EXPECT_EQ(s.solver(0).measure(s.garment(0)).sleeping, all) << "after a checkpoint";
+    EXPECT_EQ(largest_gap(s.garment(0), g), 0.0);
+  }
+  {
+    // A vertex moved after the cloth fell asleep: its bytes leave it out, so its block wakes.
+    Garment moved = g;
+    const Vertex v(65 * 32 + 32);
+    moved.set_position(v, moved.position(v) + Vec3(0, 0.001, 0));
+    Garment copy = decode_garment(encode_garment(moved));
+    const std::size_t sleeping = asleep_after_a_step(floor, copy);
+    EXPECT_LT(sleeping, all);
+    EXPECT_GT(sleeping, 0u) << "the blocks away from the moved vertex sleep on";
+  }
+  {
+    // Bytes from before the record was part of them (they end after the tacks) decode, awake.
+    const std::string bytes = encode_garment(cloth_on_floor());
+    Garment old = decode_garment(std::string_view(bytes).substr(0, bytes.size() - 4));
+    EXPECT_EQ(old.mesh().number_of_vertices(), all);
+    EXPECT_EQ(asleep_after_a_step(floor, old), 0u);
+  }
+  {
+    // A sleeping vertex that does not exist, or out of order, is malformed data, said so.
+    std::string bytes = encode_garment(g);
+    const std::size_t last = bytes.size() - 4;
+    const std::uint32_t huge = 1u << 30;
+    std::string bad = bytes;
+    bad.replace(last, 4, reinterpret_cast<const char*>(&huge), 4);  // the bytes are little-endian
+    std::string why = test::input_error([&] { decode_garment(bad); });
+    EXPECT_NE(why.find("a sleeping vertex does not exist"), std::string::npos) << why;
+    const std::uint32_t zero = 0;
+    bad = bytes;
+    bad.replace(last, 4, reinterpret_cast<const char*>(&zero), 4);
+    why = test::input_error([&] { decode_garment(bad); });
+    EXPECT_NE(why.find("not in ascending order"), std::string::npos) << why;
   }
 }
 

@@ -3,6 +3,7 @@
 #include "byte_io.h"
 #include "garment_soup.h"
 #include "overloaded.h"
+#include "sleep_record_io.h"
 
 #include <algorithm>
 
@@ -330,6 +331,13 @@ std::string encode_garment(const Garment& g) {
     w.u32(a);
     w.u32(b);
   }
+  // Where it sleeps (garments written before this part end here, and wake whole).
+  const detail::SleepingVertices asleep = detail::sleeping_vertices(g);
+  w.u32(static_cast<std::uint32_t>(asleep.vertices.size()));
+  if (!asleep.vertices.empty()) {
+    for (double d : asleep.physics) w.f64(d);
+    for (std::uint32_t v : asleep.vertices) w.u32(v);
+  }
   return w.take();
 }
 
@@ -393,6 +401,20 @@ Garment decode_garment(std::string_view bytes, const DecodeLimits& limits) {
     if (a >= nv || b >= nv) r.fail("a tack names a vertex that does not exist");
     s.tacks.emplace_back(a, b);
   }
+  detail::SleepingVertices asleep;
+  if (!r.at_end()) {
+    const std::size_t count = r.count(limits.max_vertices, 4, "the number of sleeping vertices");
+    if (count > 0) {
+      for (double& d : asleep.physics) d = r.finite("the sleeping cloth's physics");
+      asleep.vertices.resize(count);
+      for (std::size_t k = 0; k < count; ++k) {
+        const std::uint32_t v = r.u32();
+        if (v >= nv || !s.vertices[v].alive) r.fail("a sleeping vertex does not exist");
+        if (k > 0 && v <= asleep.vertices[k - 1]) r.fail("the sleeping vertices are not in ascending order");
+        asleep.vertices[k] = v;
+      }
+    }
+  }
   if (!r.at_end()) r.fail(std::to_string(r.left()) + " bytes are left over after the garment");
   if (nf == 0) throw InputError("garment data has no faces: a garment needs at least one triangle");
   try {
@@ -405,6 +427,7 @@ Garment decode_garment(std::string_view bytes, const DecodeLimits& limits) {
   auto& m = g.mesh();
   auto inverse_mass = m.property_map<Vertex, double>("v:inverse_mass").first;
   for (Vertex v : m.vertices()) inverse_mass[v] = s.vertices[v.idx()].inverse_mass;
+  detail::restore_sleep_record(g, asleep);
   return g;
 }
 

@@ -16,6 +16,7 @@
 // it still crept (less than sleep_distance in sleep_after) crept on for seconds, every step
 // costing what the whole garment costs.
 #include "parallel.h"
+#include "sleep_record_io.h"
 #include "solver_state.h"
 
 #include <algorithm>
@@ -60,6 +61,22 @@ void hash_edges(SolverArrays& s) {
 }
 
 std::uint64_t key_of(const SolverArrays& s, int i) { return s.edge_key[i] ^ mix(bits_of(s.im[i]) + 1); }
+
+// key_of, from the garment itself: each vertex's edges and inverse mass, hashed as hash_edges and
+// key_of hash them from the solver's arrays.
+std::vector<std::uint64_t> keys_of(const Garment& g) {
+  const Mesh& m = g.mesh();
+  std::vector<std::uint64_t> key(g.vertex_capacity(), 0);
+  for (Edge e : m.edges()) {
+    const Halfedge h = m.halfedge(e);
+    const std::uint64_t i = m.source(h).idx(), j = m.target(h).idx();
+    const std::uint64_t r = mix(bits_of(g.rest_length(e)));
+    key[i] += mix(j ^ r);
+    key[j] += mix(i ^ r);
+  }
+  for (Vertex v : m.vertices()) key[v.idx()] ^= mix(bits_of(g.inverse_mass(v)) + 1);
+  return key;
+}
 
 // Everything awake, each vertex's anchor where it is now; but the blocks that `carried` finds
 // exactly as they slept asleep.
@@ -215,3 +232,41 @@ std::shared_ptr<const SleepRecord> sleep_record(SolverArrays& s) {
 }
 
 }  // namespace kiji::solver_detail
+
+namespace kiji::detail {
+
+SleepingVertices sleeping_vertices(const Garment& g) {
+  SleepingVertices out;
+  const SleepRecord* r = g.sleep_record().get();
+  if (!r) return out;
+  out.physics = r->physics;
+  const std::size_t known = std::min(r->at.size(), r->key.size());
+  std::vector<std::uint64_t> key;
+  for (Vertex v : g.mesh().vertices()) {
+    const std::size_t i = v.idx();
+    if (i >= known || !(r->at[i] == g.position(v)) || g.velocity(v) != Vec3::Zero()) continue;
+    if (key.empty()) key = solver_detail::keys_of(g);
+    if (r->key[i] == key[i]) out.vertices.push_back(static_cast<std::uint32_t>(i));
+  }
+  std::sort(out.vertices.begin(), out.vertices.end());
+  return out;
+}
+
+void restore_sleep_record(Garment& g, const SleepingVertices& asleep) {
+  if (asleep.vertices.empty()) {
+    g.set_sleep_record(nullptr);
+    return;
+  }
+  auto r = std::make_shared<SleepRecord>();
+  r->physics = asleep.physics;
+  r->at.assign(g.vertex_capacity(), Vec3::Constant(std::numeric_limits<double>::quiet_NaN()));
+  r->key.assign(g.vertex_capacity(), 0);
+  const std::vector<std::uint64_t> key = solver_detail::keys_of(g);
+  for (std::uint32_t i : asleep.vertices) {
+    r->at[i] = g.position(Vertex(i));
+    r->key[i] = key[i];
+  }
+  g.set_sleep_record(std::move(r));
+}
+
+}  // namespace kiji::detail

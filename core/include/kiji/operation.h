@@ -119,8 +119,9 @@ std::string encode_operation(const Operation& op);
 // valid operation of a version this Kiji reads.
 Operation decode_operation(std::string_view bytes, const DecodeLimits& limits = {});
 
-// A garment's whole state (mesh with every property, material, texture, tacks), exactly: doubles are
-// kept bit for bit, and vertex indices (holes included) are kept.
+// A garment's whole state (mesh with every property, material, texture, tacks, and where its cloth
+// sleeps: Garment::sleep_record), exactly: doubles are kept bit for bit, and vertex indices (holes
+// included) are kept. Bytes written before the sleep record was part of them decode, awake.
 std::string encode_garment(const Garment& garment);
 Garment decode_garment(std::string_view bytes, const DecodeLimits& limits = {});
 

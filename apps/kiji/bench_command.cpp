@@ -73,6 +73,7 @@ struct ToolRate {
   double steps_per_second = 0, frames_per_second = 0;
   int moving_vertices = 0;  // pinch_local: the vertices within the radius at the stroke's end
   StepReport::Times ms;     // the solver's own account of a step, averaged over the stroke's steps
+  double asleep = 0;        // the share of the garment's vertices asleep at the stroke's end
 };
 
 // A step's time by phase, as the solver reports it (StepReport::ms), with the share of the step
@@ -208,7 +209,9 @@ std::vector<ToolRate> tool_rates(const Body& body, int vertices, int frames, std
     if (local)
       for (Vertex v : s.garment(0).mesh().vertices())
         moving += (s.garment(0).position(v) - last).norm() <= kLocalRadius;
-    out.push_back({name, (frames + 1) / step_s, (frames + 1) / (step_s + frame_s), moving, times});
+    const double asleep = double(s.solver(0).measure(s.garment(0)).sleeping) /
+                          double(std::max<std::size_t>(1, s.garment(0).mesh().number_of_vertices()));
+    out.push_back({name, (frames + 1) / step_s, (frames + 1) / (step_s + frame_s), moving, times, asleep});
   }
   return out;
 }
@@ -565,11 +568,13 @@ int bench_command(const std::vector<std::string>& argv) {
         rate["moving_vertices"] = r.moving_vertices;
       }
       rate["step_phases"] = phases_json(r.ms);
+      rate["asleep_at_end"] = r.asleep;
       row[r.tool] = rate;
       say("  %s %.1f/%.1f", r.tool.c_str(), r.steps_per_second, r.frames_per_second);
     }
     say("\n");
-    for (const auto& r : rates) say("      %-13s a step %s\n", r.tool.c_str(), phases_text(r.ms).c_str());
+    for (const auto& r : rates)
+      say("      %-13s a step %s; %.0f%% asleep at the end\n", r.tool.c_str(), phases_text(r.ms).c_str(), 100 * r.asleep);
     table.push_back(row);
   }
 

@@ -41,6 +41,13 @@ void sleep_on(Solver& s, Garment& g) {
   ASSERT_EQ(s.measure(g).sleeping, g.mesh().number_of_vertices()) << "at rest on the floor for 1 s";
 }
 
+// Lets the cloth fall asleep under a solver of its own (sleep_on): the garment keeps where it slept.
+void sleep_alone(const Body& floor, Garment& g) {
+  Solver s;
+  s.set_body(&floor);
+  sleep_on(s, g);
+}
+
 // The largest distance between the same vertex in two garments.
 double largest_gap(const Garment& a, const Garment& b) {
   double gap = 0;
@@ -163,9 +170,7 @@ TEST(Sleep, ANewSolverFindsTheClothAsleepWhereItSleptAndWakesOnlyWhatChanged) {
   // of it moves or is computed until something disturbs it.
   const Body floor = test::make_floor();
   Garment g = cloth_on_floor();
-  Solver first;
-  first.set_body(&floor);
-  ASSERT_NO_FATAL_FAILURE(sleep_on(first, g));
+  ASSERT_NO_FATAL_FAILURE(sleep_alone(floor, g));
   const std::size_t all = g.mesh().number_of_vertices();
   {
     Garment copy = g;
@@ -218,9 +223,7 @@ TEST(Sleep, AGarmentsBytesCarryWhereItSleeps) {
   // a peer does), or brought back by a checkpoint, sleeps on: it costs nothing until touched.
   const Body floor = test::make_floor();
   Garment g = cloth_on_floor();
-  Solver first;
-  first.set_body(&floor);
-  ASSERT_NO_FATAL_FAILURE(sleep_on(first, g));
+  ASSERT_NO_FATAL_FAILURE(sleep_alone(floor, g));
   const std::size_t all = g.mesh().number_of_vertices();
   {
     Garment copy = decode_garment(encode_garment(g));

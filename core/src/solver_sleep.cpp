@@ -49,21 +49,9 @@ std::uint64_t bits_of(double d) {
   return u;
 }
 
-// Each vertex's edges (the other end, the rest length), summed: the same whatever their order.
-// Hashed when a record is read or written (a rebuild, a block falling asleep), never in between.
-void hash_edges(SolverArrays& s) {
-  s.edge_key.assign(s.n, 0);
-  for (std::size_t k = 0; k < s.e_i.size(); ++k) {
-    const std::uint64_t r = mix(bits_of(s.e_rest[k]));
-    s.edge_key[s.e_i[k]] += mix(static_cast<std::uint64_t>(s.e_j[k]) ^ r);
-    s.edge_key[s.e_j[k]] += mix(static_cast<std::uint64_t>(s.e_i[k]) ^ r);
-  }
-}
-
-std::uint64_t key_of(const SolverArrays& s, int i) { return s.edge_key[i] ^ mix(bits_of(s.im[i]) + 1); }
-
-// key_of, from the garment itself: each vertex's edges and inverse mass, hashed as hash_edges and
-// key_of hash them from the solver's arrays.
+// Each vertex's edges (the other end, the rest length) summed, the same whatever their order, and
+// its inverse mass: what must be as it was for the vertex to sleep on. Hashed when a record is read
+// or written (a rebuild, a block falling asleep, the garment's bytes), never in between.
 std::vector<std::uint64_t> keys_of(const Garment& g) {
   const Mesh& m = g.mesh();
   std::vector<std::uint64_t> key(g.vertex_capacity(), 0);
@@ -102,14 +90,14 @@ void reset(SolverArrays& s, const SleepRecord* carried, const std::array<double,
   s.settle_disp.assign(blocks, 0.0);
   s.anchor = s.x;
   if (!carried || carried->physics != physics) return;
-  hash_edges(s);
+  s.sleep_key = keys_of(*s.garment);
   const std::size_t known = std::min(carried->at.size(), carried->key.size());
   for (int b = 0; b < blocks; ++b) {
     bool still = s.block_start[b + 1] > s.block_start[b];
     for (int k = s.block_start[b]; still && k < s.block_start[b + 1]; ++k) {
       const int i = s.block_verts[k];
       still = static_cast<std::size_t>(i) < known && carried->at[i] == s.x[i] && s.v[i] == Vec3::Zero() &&
-              carried->key[i] == key_of(s, i);
+              carried->key[i] == s.sleep_key[i];
     }
     s.asleep[b] = still;
   }
@@ -215,7 +203,7 @@ bool sleep_after_step(SolverArrays& s, const SolverParams& p, double dt) {
 }
 
 std::shared_ptr<const SleepRecord> sleep_record(SolverArrays& s) {
-  hash_edges(s);
+  s.sleep_key = keys_of(*s.garment);
   auto r = std::make_shared<SleepRecord>();
   r->physics = s.physics;
   r->at.assign(s.n, Vec3::Constant(std::numeric_limits<double>::quiet_NaN()));
@@ -225,7 +213,7 @@ std::shared_ptr<const SleepRecord> sleep_record(SolverArrays& s) {
     for (int k = s.block_start[b]; k < s.block_start[b + 1]; ++k) {
       const int i = s.block_verts[k];
       r->at[i] = s.x[i];
-      r->key[i] = key_of(s, i);
+      r->key[i] = s.sleep_key[i];
     }
   }
   return r;

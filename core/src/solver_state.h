@@ -216,7 +216,7 @@ struct SolverArrays {
   std::vector<double> settle_disp;            // per block: the farthest a vertex is from its anchor
   std::array<double, 15> physics{};           // what the motion depends on, to wake all when it changes
   std::size_t sleeping = 0;                   // vertices asleep
-  std::vector<std::uint64_t> edge_key;        // per vertex: its edges and their rest lengths, hashed (scratch)
+  std::vector<std::uint64_t> sleep_key;       // per vertex: its edges, rest lengths and mass, hashed (scratch)
 
   // ---- diagnostics of the last step ----
   std::size_t last_body_candidates = 0;

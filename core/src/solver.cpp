@@ -473,6 +473,7 @@ void rebuild(SolverArrays& s, const Garment& g) {
   s.w.assign(n, 0.0);
   s.surprise.assign(n, 0.0);
   s.surprise_self.assign(n, 0.0);
+  s.held_up.assign(n, 0);
   for (Vertex v : m.vertices()) s.alive[v.idx()] = 1;
 
   // Spatial order of the vertices (for collision clusters): Morton code of the current positions.

@@ -333,6 +333,7 @@ void resolve_body_against(SolverArrays& s, int i, double th, double mu, const in
     nrm = dir;
     x = nx;
   }
+  s.held_up[i] = push > 0 && nrm.dot(s.up) > 0;
   if (push > 0 && mu > 0) {
     // Coulomb friction on the substep's tangential motion (position-based, Macklin et al. 2014).
     const Vec3 dx = x - xp;

@@ -202,6 +202,12 @@ struct SolverArrays {
   // Per vertex, for skipping far pairs: the length of its path since the pairs were gathered, up
   // to the last substep, and up to now (path + this substep's motion + the self-collision pushes).
   std::vector<double> path, reach;
+  // Per vertex: the body held it up (pushed it out against gravity) in the last substep; reset by
+  // rebuild, and each step for a vertex with no body triangle near. `up` is against gravity (zero
+  // without it). A long-range limit from a held vertex to cloth hanging below moves only the
+  // hanging end (step_xpbd).
+  std::vector<unsigned char> held_up;
+  Vec3 up = Vec3::Zero();
   std::vector<Vec3> win;  // per vertex: its predicted motion over the window of the last gather
 
   // ---- sleeping (see SolverParams::sleep_after), reset to all awake by rebuild ----

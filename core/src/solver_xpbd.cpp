@@ -340,12 +340,18 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
   });
   {
     PhaseClock clock(s.report.ms.body);
+    s.up = g.squaredNorm() > 0 ? Vec3(-g.normalized()) : Vec3::Zero();
     if (body && !s.body_tris.empty()) {
       gather_body_candidates(s, *body, th);
       gather_point_pairs(s, th);
+      parallel::for_range(static_cast<int>(n), kVertexGrain, [&](int b, int e) {
+        for (int i = b; i < e; ++i)
+          if (s.cand_count[i] == 0) s.held_up[i] = 0;  // no body near: nothing holds it up
+      });
     } else {
       s.contact_verts.clear();
       s.point_pairs.clear();
+      std::fill(s.held_up.begin(), s.held_up.end(), 0);
     }
   }
   s.self_pairs.clear();
@@ -413,10 +419,22 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
     };
     for (int it = 0; it < p.iterations; ++it) {
       hands(false);
-      auto limits = [&](int b, int e) {  // long-range limits
+      // Long-range limits. One between cloth the body holds up and cloth hanging below it moves
+      // only the hanging end, as a long-range attachment to a pin does (Kim et al. 2012): the body
+      // carries the held end. Pulled down too, the held end stretched the cloth around it, and
+      // friction kept that stretch (docs/benchmarks.md, "Why the crown stays stretched").
+      const unsigned char* held = s.held_up.data();
+      const Vec3 up = s.up;
+      auto limits = [&](int b, int e) {
         for (int k = b; k < e; ++k) {
           const int i = cs.l_i[k], j = cs.l_j[k];
-          const double wsum = W[i] + W[j];
+          double wi = W[i], wj = W[j];
+          if (held[i] != held[j]) {
+            const double i_above = (X[i] - X[j]).dot(up);
+            if (held[i] && i_above > 0) wi = 0;
+            if (held[j] && i_above < 0) wj = 0;
+          }
+          const double wsum = wi + wj;
           if (wsum == 0) continue;
           const Vec3 d = X[i] - X[j];
           const double len2 = d.squaredNorm();
@@ -424,8 +442,8 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
           if (len2 <= rest * rest) continue;
           const double len = std::sqrt(len2);
           const Vec3 corr = d * ((rest - len) / (len * wsum));
-          X[i] += W[i] * corr;
-          X[j] -= W[j] * corr;
+          X[i] += wi * corr;
+          X[j] -= wj * corr;
         }
       };
       run_ranges(*cs.l_ranges, s.l_kinds, limits);  // coarse to fine

@@ -19,10 +19,10 @@ struct DrapeOptions {
   double seconds = 3.0;          // simulated time
   double frame_rate = 60.0;      // steps per simulated second
   // The solver for the drape: 40 substeps a step rather than the interactive default of 10. A
-  // falling cloth landing on a head wraps a dome in a fraction of a second; with 10 substeps the
-  // edges over the crown and in the first folds stretch by 20-40 % before the constraints catch up
-  // and friction then holds them so (10,000 vertices); with 40 the largest edge strain stays under
-  // 7 % (10,000 and 14,241 vertices) at 2.3 times the time per step.
+  // falling cloth landing on a head wraps a dome in a fraction of a second; with 10 substeps its
+  // first folds are compressed by up to 28 % and its mean strain is 1.4 % (10,000 vertices); with
+  // 40 the largest edge strain stays under 7 % and the mean at 0.2 % (10,000 and 14,241 vertices),
+  // at 2.3 times the time per step.
   SolverParams solver = [] {
     SolverParams p;
     p.substeps = 40;

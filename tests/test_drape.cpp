@@ -75,6 +75,34 @@ TEST(Drape, RestsUnstretchedAtTheSessionsSubsteps) {
   EXPECT_LE(stretched, edges / 2000) << stretched << " of " << edges << " edges stretched by more than 10 %";
 }
 
+// The body holds the cloth up, but it lets go of a garment pulled off it: a hand that takes the
+// front hem of a garment resting on the head and shoulders down and away drags the whole garment
+// with it. Held up without limit against the long-range limits, it stayed on the body, the hem
+// 0.6 m from the hand.
+TEST(Drape, AGarmentPulledByItsHemComesOffTheBody) {
+  const Body body = Body::load(Body::default_path());
+  Garment g = make_rectangle(1.0, 1.0, 71, 71);
+  place_over_body(g, body);
+  Solver solver{SolverParams{}};
+  solver.set_body(&body);
+  for (int i = 0; i < 120; ++i) solver.step(g, 1.0 / 60);
+  const double top = g.bounds().max().y();
+  ASSERT_GT(top, 0.9 * body.height()) << "it rests on the head";
+  Vertex hem;
+  double lowest_front = -1e9;
+  for (Vertex v : g.mesh().vertices()) {
+    const Vec3 p = g.position(v);
+    if (p.z() - 2 * p.y() > lowest_front) lowest_front = p.z() - 2 * p.y(), hem = v;
+  }
+  const Vec3 start = g.position(hem);
+  const int hand = solver.add_attachment(hem, start, 50.0);
+  for (int i = 1; i <= 120; ++i) {
+    solver.move_attachment(hand, start + Vec3(0, -0.6, 0.3) * std::min(1.0, i / 60.0));
+    solver.step(g, 1.0 / 60);
+  }
+  EXPECT_LT(g.bounds().max().y(), top - 0.3) << "the garment stayed on the body";
+}
+
 // A body from elsewhere, as `kiji drape --body sydney.md2 --height 1.7` reads it: a Quake II
 // character of 679 triangles, facing +X, with a pointed crown, a raised hand whose fingers are fins
 // of no thickness, and faces turned inwards. Turned to face the camera and rounded, it takes a

@@ -421,26 +421,28 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
       hands(false);
       // Long-range limits. One between cloth the body holds up and cloth hanging below it moves
       // only the hanging end, as a long-range attachment to a pin does (Kim et al. 2012): the body
-      // carries the held end. Pulled down too, the held end stretched the cloth around it, and
-      // friction kept that stretch (docs/benchmarks.md, "Why the crown stays stretched").
-      const unsigned char* held = s.held_up.data();
+      // carries the held end against the cloth's weight. Pulled down too, the held end stretched
+      // the cloth around it, and friction kept that stretch (docs/benchmarks.md, "Why the crown
+      // stays stretched"). Not while a hand holds the garment: its pull must be able to drag the
+      // garment off the body, as before (held regardless, the garment stayed on).
+      const unsigned char* held = s.attach.empty() ? s.held_up.data() : nullptr;
       const Vec3 up = s.up;
       auto limits = [&](int b, int e) {
         for (int k = b; k < e; ++k) {
           const int i = cs.l_i[k], j = cs.l_j[k];
-          double wi = W[i], wj = W[j];
-          if (held[i] != held[j]) {
-            const double i_above = (X[i] - X[j]).dot(up);
-            if (held[i] && i_above > 0) wi = 0;
-            if (held[j] && i_above < 0) wj = 0;
-          }
-          const double wsum = wi + wj;
-          if (wsum == 0) continue;
           const Vec3 d = X[i] - X[j];
           const double len2 = d.squaredNorm();
           const double rest = cs.l_rest[k];
           if (len2 <= rest * rest) continue;
           const double len = std::sqrt(len2);
+          double wi = W[i], wj = W[j];
+          if (held && held[i] != held[j]) {
+            const double i_above = d.dot(up);
+            if (held[i] && i_above > 0) wi = 0;
+            if (held[j] && i_above < 0) wj = 0;
+          }
+          const double wsum = wi + wj;
+          if (wsum == 0) continue;
           const Vec3 corr = d * ((rest - len) / (len * wsum));
           X[i] += wi * corr;
           X[j] -= wj * corr;

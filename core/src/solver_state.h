@@ -205,7 +205,7 @@ struct SolverArrays {
   // Per vertex: the body held it up (pushed it out against gravity) in the last substep; reset by
   // rebuild, and each step for a vertex with no body triangle near. `up` is against gravity (zero
   // without it). A long-range limit from a held vertex to cloth hanging below moves only the
-  // hanging end (step_xpbd).
+  // hanging end while no hand holds the garment (step_xpbd).
   std::vector<unsigned char> held_up;
   Vec3 up = Vec3::Zero();
   std::vector<Vec3> win;  // per vertex: its predicted motion over the window of the last gather

@@ -443,15 +443,7 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
           }
           const double wsum = wi + wj;
           if (wsum == 0) continue;
-          Vec3 corr = d * ((rest - len) / (len * wsum));
-          // Held above it, the hanging end moves at most 0.35 of the thickness a substep: moved
-          // the whole way at once, it took a kick, and a 50,000-vertex garment settled on the body
-          // and woken flew up off it within 3 s. The fraction is measured (docs/solver.md). A
-          // pin's limits are as before.
-          if ((wi == 0 && W[i] > 0) || (wj == 0 && W[j] > 0)) {
-            const double move = wsum * corr.norm(), most = 0.35 * th;
-            if (move > most) corr *= most / move;
-          }
+          const Vec3 corr = d * ((rest - len) / (len * wsum));
           X[i] += wi * corr;
           X[j] -= wj * corr;
         }

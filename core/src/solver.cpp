@@ -469,7 +469,7 @@ void rebuild(SolverArrays& s, const Garment& g) {
   s.alive.assign(n, 0);
   s.moving.assign(n, 0);
   s.x.assign(n, Vec3::Zero());
-  s.xp = s.x0 = s.v = s.fext = s.pred = s.x;
+  s.xp = s.x0 = s.v = s.fext = s.pred = s.unkick = s.x;
   s.w.assign(n, 0.0);
   s.surprise.assign(n, 0.0);
   s.surprise_self.assign(n, 0.0);

@@ -207,6 +207,9 @@ struct SolverArrays {
   // without it). A long-range limit from a held vertex to cloth hanging below moves only the
   // hanging end while no hand holds the garment (step_xpbd).
   std::vector<unsigned char> held_up;
+  // Per vertex: how far such a limit moved it this substep beyond its own share; the move is kept
+  // as position and not turned into velocity (moved the whole way as velocity, it was a kick).
+  std::vector<Vec3> unkick;
   Vec3 up = Vec3::Zero();
   std::vector<Vec3> win;  // per vertex: its predicted motion over the window of the last gather
 

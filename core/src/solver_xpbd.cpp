@@ -436,14 +436,27 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
           if (len2 <= rest * rest) continue;
           const double len = std::sqrt(len2);
           double wi = W[i], wj = W[j];
+          const double wboth = wi + wj;
+          if (wboth == 0) continue;
           if (held && held[i] != held[j]) {
             const double i_above = d.dot(up);
             if (held[i] && i_above > 0) wi = 0;
             if (held[j] && i_above < 0) wj = 0;
+            if (wi == 0 || wj == 0) {
+              // The hanging end alone, the whole way; what is beyond its own share is not velocity.
+              const Vec3 corr = d * ((rest - len) / len);
+              const double own = (wi + wj) / wboth;
+              if (wi > 0) {
+                X[i] += corr;
+                s.unkick[i] += (1 - own) * corr;
+              } else if (wj > 0) {
+                X[j] -= corr;
+                s.unkick[j] -= (1 - own) * corr;
+              }
+              continue;
+            }
           }
-          const double wsum = wi + wj;
-          if (wsum == 0) continue;
-          const Vec3 corr = d * ((rest - len) / (len * wsum));
+          const Vec3 corr = d * ((rest - len) / (len * wboth));
           X[i] += wi * corr;
           X[j] -= wj * corr;
         }
@@ -540,7 +553,8 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
     parallel::for_range(na, kVertexGrain, [&](int b, int e) {
       for (int a = b; a < e; ++a) {
         const int i = act[a];
-        s.v[i] = (X[i] - s.xp[i]) * inv_h;
+        s.v[i] = (X[i] - s.xp[i] - s.unkick[i]) * inv_h;
+        s.unkick[i] = Vec3::Zero();
       }
     });
     if (!s.self_pairs.empty())

@@ -127,8 +127,9 @@ TEST(Drape, AGarmentPulledByItsHemComesOffTheBody) {
   EXPECT_LT(g.bounds().max().y(), top - 0.3) << "the garment stayed on the body";
 }
 
-// A fine garment (50,176 vertices) let fall with its damping raised until it sleeps, as the bench
-// settles its garments, then woken with its own damping: it stays where it rests. When the move of
+// A fine garment (50,176 vertices) let fall with its damping raised for up to 12 s or until it
+// sleeps, as the bench settles its garments, then woken with its own damping: it stays where it
+// rests. When the move of
 // the cloth hanging below the held cloth to its long-range limits became velocity, it took a kick
 // each substep, and this garment rose above the head and flew off the body within 3 s.
 TEST(Drape, AFineGarmentWokenOnTheBodyStaysOnIt) {

@@ -66,7 +66,7 @@ Garment landed_cloth(const Body& body, Solver& solver) {
   return g;
 }
 
-// Lets a cloth of n x n vertices fall onto the body with its damping raised to 8/s, as the bench
+// Places the garment over the body and lets it fall with its damping raised to 8/s, as the bench
 // settles its garments, for at most `seconds` or until all of it sleeps; returns the steps taken.
 // The garment keeps its raised damping.
 int settle_damped(Garment& g, const Body& body, double seconds) {

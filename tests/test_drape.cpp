@@ -102,10 +102,11 @@ TEST(Drape, RestsUnstretchedAtTheSessionsSubsteps) {
 }
 
 // The body holds the cloth up, but it lets go of a garment pulled off it: a hand that takes the
-// front hem of a garment resting on the head and shoulders down and away drags the whole garment
-// with it. When the body held its cloth up against the long-range limits under a hand too, the
-// garment stayed on the body, the hem 0.6 m from the hand. It holds after this landing (120 steps)
-// and after 150 or 180, but not after 90: docs/benchmarks.md, "The hanging end's kick".
+// front hem of a garment resting on the head and shoulders, in the middle, down and away drags
+// the whole garment with it. When the body held its cloth up against the long-range limits under a
+// hand too, the garment stayed on the body, the hem 0.6 m from the hand. Whether a pull brings it
+// off depends on how the cloth landed: after 7 of 12 landings of 75 to 240 steps
+// (docs/benchmarks.md, "The held flag").
 TEST(Drape, AGarmentPulledByItsHemComesOffTheBody) {
   const Body body = Body::load(Body::default_path());
   Solver solver{SolverParams{}};
@@ -116,7 +117,7 @@ TEST(Drape, AGarmentPulledByItsHemComesOffTheBody) {
   double lowest_front = -1e9;
   for (Vertex v : g.mesh().vertices()) {
     const Vec3 p = g.position(v);
-    if (p.z() - 2 * p.y() > lowest_front) lowest_front = p.z() - 2 * p.y(), hem = v;
+    if (std::abs(p.x()) < 0.1 && p.z() - 2 * p.y() > lowest_front) lowest_front = p.z() - 2 * p.y(), hem = v;
   }
   const Vec3 start = g.position(hem);
   const int hand = solver.add_attachment(hem, start, 50.0);

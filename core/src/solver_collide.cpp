@@ -34,6 +34,10 @@ constexpr int kCluster = 8;
 // The largest side of a vertex's swept box above which it keeps no candidates (6 m/s at 60 steps a
 // second: faster than cloth falls onto a body or a hand draws it).
 constexpr double kFastSweep = 0.1;
+// How far beyond the thickness a vertex over an upward surface still counts as held up by it, as a
+// share of the thickness (resolve_body_against): 0.1-0.25 mm, several times what gravity moves
+// resting cloth in a substep.
+constexpr double kHeldMargin = 0.05;
 
 // The box swept by vertex i over the step's predicted motion (less a common motion `c`, for
 // culling in a moving frame), grown by `pad`, plus `slack` times that motion (room for constraint
@@ -295,10 +299,16 @@ void resolve_body_against(SolverArrays& s, int i, double th, double mu, const in
   const Vec3 xp = s.xp[i];
   double push = 0;
   Vec3 nrm = Vec3::Zero();
+  // Resting on the body, a vertex is pushed out in one substep and not in the next (the cloth's
+  // pull lifts it a few micrometres). Held is whether it lies within the margin of an upward
+  // surface, so that it does not flip from substep to substep: flipping, the long-range limits
+  // moved hanging cloth the whole way and then its share, and it never came to rest.
+  const double reach = (1 + kHeldMargin) * th;
+  bool near_up = false;
   for (int k = 0; k < cnt; ++k) {
     const SolverArrays::BodyTri& T = s.body_tris[c[k]];
     const double dn = (x - T.a).dot(T.n);
-    if (dn >= th) continue;
+    if (dn >= reach) continue;
     const double dp = (xp - T.a).dot(T.n);
     if (dp >= 0 && dn < 0) {
       // It went through the triangle's plane this substep: did it go through the triangle?
@@ -322,18 +332,22 @@ void resolve_body_against(SolverArrays& s, int i, double th, double mu, const in
     // candidates of a vertex resting on the body are its triangle's neighbours, nearly in its plane
     // but beside it.
     const Box3& tb = s.body_boxes[c[k]];
-    if ((x - tb.max()).maxCoeff() >= th || (tb.min() - x).maxCoeff() >= th) continue;
+    if ((x - tb.max()).maxCoeff() >= reach || (tb.min() - x).maxCoeff() >= reach) continue;
     const geom::ClosestPoint cp = geom::closest_on_triangle(x, T.a, T.b, T.c);
     const Vec3 d = x - cp.point;
     const double d2 = d.squaredNorm();
-    if (d2 >= th * th) continue;
+    if (d2 >= reach * reach) continue;
+    if (d2 >= th * th) {
+      near_up = near_up || (dn > 0 && d.dot(s.up) > 0);
+      continue;
+    }
     const Vec3 dir = (dn > 0 && d2 > 1e-24) ? Vec3(d / std::sqrt(d2)) : T.n;
     const Vec3 nx = cp.point + th * dir;
     push += (nx - x).norm();
     nrm = dir;
     x = nx;
   }
-  s.held_up[i] = push > 0 && nrm.dot(s.up) > 0;
+  s.held_up[i] = (push > 0 && nrm.dot(s.up) > 0) || near_up;
   if (push > 0 && mu > 0) {
     // Coulomb friction on the substep's tangential motion (position-based, Macklin et al. 2014).
     const Vec3 dx = x - xp;

@@ -202,7 +202,8 @@ struct SolverArrays {
   // Per vertex, for skipping far pairs: the length of its path since the pairs were gathered, up
   // to the last substep, and up to now (path + this substep's motion + the self-collision pushes).
   std::vector<double> path, reach;
-  // Per vertex: the body held it up (pushed it out against gravity) in the last substep; reset by
+  // Per vertex: the body held it up (pushed it out against gravity, or it lies within a small
+  // margin of the thickness above an upward surface) in the last substep; reset by
   // rebuild, and each step for a vertex with no body triangle near. `up` is against gravity (zero
   // without it). A long-range limit from a held vertex to cloth hanging below moves only the
   // hanging end while no hand holds the garment (step_xpbd).

@@ -130,9 +130,9 @@ TEST(Drape, AGarmentPulledByItsHemComesOffTheBody) {
 
 // A fine garment (50,176 vertices) let fall with its damping raised for up to 12 s or until it
 // sleeps, as the bench settles its garments, then woken with its own damping: it stays where it
-// rests. When the move of
-// the cloth hanging below the held cloth to its long-range limits became velocity, it took a kick
-// each substep, and this garment rose above the head and flew off the body within 3 s.
+// rests. When the move of the cloth hanging below the held cloth to its long-range limits became
+// velocity, it took a kick each substep, and this garment rose above the head and flew off the body
+// within 3 s.
 TEST(Drape, AFineGarmentWokenOnTheBodyStaysOnIt) {
   const Body body = Body::load(Body::default_path());
   Garment g = make_rectangle(1.0, 1.0, 224, 224);

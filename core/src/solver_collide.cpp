@@ -303,12 +303,12 @@ void resolve_body_against(SolverArrays& s, int i, double th, double mu, const in
   // pull lifts it a few micrometres). Held is whether it lies within the margin of an upward
   // surface, so that it does not flip from substep to substep: flipping, the long-range limits
   // moved hanging cloth the whole way and then its share, and it never came to rest.
-  const double reach = (1 + kHeldMargin) * th;
+  const double held_within = (1 + kHeldMargin) * th;
   bool near_up = false;
   for (int k = 0; k < cnt; ++k) {
     const SolverArrays::BodyTri& T = s.body_tris[c[k]];
     const double dn = (x - T.a).dot(T.n);
-    if (dn >= reach) continue;
+    if (dn >= held_within) continue;
     const double dp = (xp - T.a).dot(T.n);
     if (dp >= 0 && dn < 0) {
       // It went through the triangle's plane this substep: did it go through the triangle?
@@ -332,11 +332,11 @@ void resolve_body_against(SolverArrays& s, int i, double th, double mu, const in
     // candidates of a vertex resting on the body are its triangle's neighbours, nearly in its plane
     // but beside it.
     const Box3& tb = s.body_boxes[c[k]];
-    if ((x - tb.max()).maxCoeff() >= reach || (tb.min() - x).maxCoeff() >= reach) continue;
+    if ((x - tb.max()).maxCoeff() >= held_within || (tb.min() - x).maxCoeff() >= held_within) continue;
     const geom::ClosestPoint cp = geom::closest_on_triangle(x, T.a, T.b, T.c);
     const Vec3 d = x - cp.point;
     const double d2 = d.squaredNorm();
-    if (d2 >= reach * reach) continue;
+    if (d2 >= held_within * held_within) continue;
     if (d2 >= th * th) {
       near_up = near_up || (dn > 0 && d.dot(s.up) > 0);
       continue;

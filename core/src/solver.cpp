@@ -141,7 +141,7 @@ int Solver::add_attachment(Vertex v, const Vec3& target, double stiffness, bool 
   if (!all_finite(target)) throw InputError("an attachment's target point is not finite");
   if (!std::isfinite(stiffness) || stiffness <= 0)
     throw InputError("an attachment's stiffness is " + std::to_string(stiffness) + ": it must be positive, in N/m");
-  attachments_.push_back({next_attachment_, v, target, stiffness, firm});
+  attachments_.push_back({next_attachment_, v, target, target, stiffness, firm});
   return next_attachment_++;
 }
 
@@ -730,7 +730,8 @@ void Solver::step(Garment& garment, double dt) {
                                     [&](const Attachment& a) { return a.vertex.idx() >= n || !s.alive[a.vertex.idx()]; }),
                      attachments_.end());
   s.attach.clear();
-  for (const auto& a : attachments_) s.attach.push_back({static_cast<int>(a.vertex.idx()), a.target, a.stiffness, a.firm});
+  for (const auto& a : attachments_)
+    s.attach.push_back({static_cast<int>(a.vertex.idx()), a.target, a.from, a.stiffness, a.firm});
   s.tacks.clear();
   for (const auto& [a, b] : garment.tacks)
     if (a.idx() < n && b.idx() < n && s.alive[a.idx()] && s.alive[b.idx()])
@@ -784,6 +785,7 @@ void Solver::step(Garment& garment, double dt) {
     }
   });
   if (fell_asleep) garment.set_sleep_record(solver_detail::sleep_record(s));
+  for (auto& a : attachments_) a.from = a.target;
   finish_times();
 }
 

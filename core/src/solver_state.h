@@ -102,7 +102,8 @@ struct SolverArrays {
   struct Attach {
     int i;
     Vec3 target;
-    double k;  // N/m
+    Vec3 from;  // the target at the last step's end: a plain hand's target moves from it over the substeps
+    double k;   // N/m
     bool firm;  // projected after the cloth's constraints (wins), or with them
   };
   std::vector<Attach> attach;

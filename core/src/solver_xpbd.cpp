@@ -115,6 +115,8 @@ Constraints select_constraints(SolverArrays& s) {
 }
 
 constexpr int kVertexGrain = 2048, kConstraintGrain = 256, kContactGrain = 128;
+// A plain hand's mass, in units of k h^2 (its stiffness times the substep squared).
+constexpr double kHandMass = 25.0;
 
 // Runs f(begin, end) over the ranges [offsets[k], offsets[k + 1]) one after the other, each as its
 // kind says (see SolverArrays): a run of blocks together in parallel, each block in sequence; a
@@ -375,9 +377,46 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
     s.lam_b.resize(nb);
   }
 
+  // A plain hand is a body of its own: each vertex it holds carries kHandMass k h^2 more mass (k the
+  // stiffness of the hands on it), so that one projection of its spring gives the cloth
+  // kHandMass / (kHandMass + 1) of the stiffness, where the vertex's own mass alone capped it at
+  // m / h^2 (1.8-3.5 N/m for one vertex of a fine cloth: docs/benchmarks.md, "A hand's pull"). The
+  // hand holds itself up (gravity pulls only the cloth's mass) and is damped critically about the
+  // target's motion, so it follows a moving pen without ringing.
+  struct Held {
+    int i;
+    double k = 0;            // the hands' stiffness on the vertex
+    Vec3 vt = Vec3::Zero();  // the targets' velocity (stiffness-weighted)
+    double own = 1;          // the cloth's share of the vertex's mass
+    Vec3 v0 = Vec3::Zero();  // its velocity as the substep began
+  };
+  std::vector<Held> held_by_hand;
+  for (const auto& a : s.attach)
+    if (!a.firm && s.w[a.i] != 0) held_by_hand.push_back({a.i, a.k, a.k * (a.target - a.from) / dt});
+  // One entry a vertex, however many hands hold it.
+  std::stable_sort(held_by_hand.begin(), held_by_hand.end(), [](const Held& a, const Held& b) { return a.i < b.i; });
+  std::size_t kept = 0;
+  for (std::size_t r = 0; r < held_by_hand.size(); ++r) {
+    if (kept > 0 && held_by_hand[kept - 1].i == held_by_hand[r].i) {
+      held_by_hand[kept - 1].k += held_by_hand[r].k;
+      held_by_hand[kept - 1].vt += held_by_hand[r].vt;
+    } else {
+      held_by_hand[kept++] = held_by_hand[r];
+    }
+  }
+  held_by_hand.resize(kept);
+  for (Held& hv : held_by_hand) {
+    hv.vt /= hv.k;
+    const double mass = 1.0 / s.w[hv.i] + kHandMass * hv.k * h * h;
+    hv.own = 1.0 / (s.w[hv.i] * mass);
+    s.w[hv.i] = 1.0 / mass;
+  }
+  const double hand_decay = std::exp(-2.0 / std::sqrt(kHandMass));  // critical: 2 omega h a substep
+
   Vec3* X = s.x.data();
   const double* W = s.w.data();
   for (int sub = 0; sub < substeps; ++sub) {
+    const double along = double(sub + 1) / substeps;  // how far the plain hands' targets have moved
     if (p.self_collision && sub % window == 0) {
       PhaseClock clock(s.report.ms.self_search);
       // The pairs for the next `window` substeps (fewer at the step's end), gathered from where
@@ -393,6 +432,7 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
       std::fill(s.path.begin(), s.path.end(), 0.0);
     }
     PhaseClock solve_clock(s.report.ms.solve);
+    for (Held& hv : held_by_hand) hv.v0 = s.v[hv.i];
     parallel::for_range(na, kVertexGrain, [&](int b, int e) {
       for (int a = b; a < e; ++a) {
         const int i = act[a];
@@ -401,6 +441,12 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
         X[i] += h * s.v[i];
       }
     });
+    for (const Held& hv : held_by_hand) {
+      const int i = hv.i;
+      const Vec3 v = hv.v0 + h * (hv.own * g + W[i] * s.fext[i]);
+      s.v[i] = hv.vt + (v - hv.vt) * hand_decay;
+      X[i] = s.xp[i] + h * s.v[i];
+    }
     if (multipliers) {
       std::fill(s.lam_e.begin(), s.lam_e.end(), 0.0);
       if (bending) std::fill(s.lam_b.begin(), s.lam_b.end(), Vec3::Zero());
@@ -414,7 +460,8 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
         const int i = a.i;
         if (a.firm != firm || W[i] == 0) continue;
         const double alpha = 1.0 / (a.k * h * h);
-        X[i] += (a.target - X[i]) * (W[i] / (W[i] + alpha));
+        const Vec3 target = firm ? a.target : Vec3(a.from + along * (a.target - a.from));
+        X[i] += (target - X[i]) * (W[i] / (W[i] + alpha));
       }
     };
     for (int it = 0; it < p.iterations; ++it) {

@@ -140,7 +140,10 @@ class Solver {
   // Xpbd solves a plain attachment in the same sweep as the cloth's own constraints, before them,
   // so that the cloth pulls back: a hand brings the cloth along as far as the cloth's stiffness
   // carries it in the step, and does not stretch it past its strain limit (a hand of 50 N/m on one
-  // corner of a fine cloth, projected last, pulled it out as a spike 7 to 30 times its length). A
+  // corner of a fine cloth, projected last, pulled it out as a spike 7 to 30 times its length). The
+  // hand has a mass of its own, carried by the vertex it holds, so that the cloth gets the hand's
+  // stiffness however light the vertex (a cloth of weight W hangs W / k below the target), and its
+  // target moves from where it was at the last step to where it is now over the step's substeps. A
   // `firm` one is projected after them and after the strain limit: it wins, and can stretch the
   // cloth past the limit (the tear tool pulls until the cloth tears).
   int add_attachment(Vertex v, const Vec3& target, double stiffness, bool firm = false);
@@ -177,6 +180,7 @@ class Solver {
     int id;
     Vertex vertex;
     Vec3 target;
+    Vec3 from;  // the target when the last step ended
     double stiffness;
     bool firm;
   };

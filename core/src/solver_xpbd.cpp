@@ -118,6 +118,46 @@ constexpr int kVertexGrain = 2048, kConstraintGrain = 256, kContactGrain = 128;
 // A plain hand's mass, in units of k h^2 (its stiffness times the substep squared).
 constexpr double kHandMass = 25.0;
 
+// A plain hand is a body of its own: each vertex it holds carries kHandMass k h^2 more mass (k the
+// stiffness of the hands on it), so that one projection of its spring gives the cloth
+// kHandMass / (kHandMass + 1) of the stiffness, where the vertex's own mass alone capped it at
+// m / h^2 (1.8-3.5 N/m for one vertex of a fine cloth: docs/benchmarks.md, "A hand's pull"). The
+// hand holds itself up (gravity pulls only the cloth's mass) and is damped critically about the
+// target's motion, so it follows a moving pen without ringing.
+struct Held {
+  int i;
+  double k = 0;            // the hands' stiffness on the vertex
+  Vec3 vt = Vec3::Zero();  // the targets' velocity (stiffness-weighted)
+  double own = 1;          // the cloth's share of the vertex's mass
+  Vec3 v0 = Vec3::Zero();  // its velocity as the substep began
+};
+
+// The vertices the plain hands hold, one entry a vertex however many hands hold it, with the hands'
+// mass added to their inverse masses in s.w for this step (the next step's mirror writes them anew).
+std::vector<Held> weigh_hands(SolverArrays& s, double dt, double h) {
+  std::vector<Held> held;
+  for (const auto& a : s.attach)
+    if (!a.firm && s.w[a.i] != 0) held.push_back({a.i, a.k, a.k * (a.target - a.from) / dt});
+  std::stable_sort(held.begin(), held.end(), [](const Held& a, const Held& b) { return a.i < b.i; });
+  std::size_t kept = 0;
+  for (std::size_t r = 0; r < held.size(); ++r) {
+    if (kept > 0 && held[kept - 1].i == held[r].i) {
+      held[kept - 1].k += held[r].k;
+      held[kept - 1].vt += held[r].vt;
+    } else {
+      held[kept++] = held[r];
+    }
+  }
+  held.resize(kept);
+  for (Held& hv : held) {
+    hv.vt /= hv.k;
+    const double mass = 1.0 / s.w[hv.i] + kHandMass * hv.k * h * h;
+    hv.own = 1.0 / (s.w[hv.i] * mass);
+    s.w[hv.i] = 1.0 / mass;
+  }
+  return held;
+}
+
 // Runs f(begin, end) over the ranges [offsets[k], offsets[k + 1]) one after the other, each as its
 // kind says (see SolverArrays): a run of blocks together in parallel, each block in sequence; a
 // colour group in parallel pieces; the overflow group in sequence. The blocks of a run (at most
@@ -377,40 +417,7 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
     s.lam_b.resize(nb);
   }
 
-  // A plain hand is a body of its own: each vertex it holds carries kHandMass k h^2 more mass (k the
-  // stiffness of the hands on it), so that one projection of its spring gives the cloth
-  // kHandMass / (kHandMass + 1) of the stiffness, where the vertex's own mass alone capped it at
-  // m / h^2 (1.8-3.5 N/m for one vertex of a fine cloth: docs/benchmarks.md, "A hand's pull"). The
-  // hand holds itself up (gravity pulls only the cloth's mass) and is damped critically about the
-  // target's motion, so it follows a moving pen without ringing.
-  struct Held {
-    int i;
-    double k = 0;            // the hands' stiffness on the vertex
-    Vec3 vt = Vec3::Zero();  // the targets' velocity (stiffness-weighted)
-    double own = 1;          // the cloth's share of the vertex's mass
-    Vec3 v0 = Vec3::Zero();  // its velocity as the substep began
-  };
-  std::vector<Held> held_by_hand;
-  for (const auto& a : s.attach)
-    if (!a.firm && s.w[a.i] != 0) held_by_hand.push_back({a.i, a.k, a.k * (a.target - a.from) / dt});
-  // One entry a vertex, however many hands hold it.
-  std::stable_sort(held_by_hand.begin(), held_by_hand.end(), [](const Held& a, const Held& b) { return a.i < b.i; });
-  std::size_t kept = 0;
-  for (std::size_t r = 0; r < held_by_hand.size(); ++r) {
-    if (kept > 0 && held_by_hand[kept - 1].i == held_by_hand[r].i) {
-      held_by_hand[kept - 1].k += held_by_hand[r].k;
-      held_by_hand[kept - 1].vt += held_by_hand[r].vt;
-    } else {
-      held_by_hand[kept++] = held_by_hand[r];
-    }
-  }
-  held_by_hand.resize(kept);
-  for (Held& hv : held_by_hand) {
-    hv.vt /= hv.k;
-    const double mass = 1.0 / s.w[hv.i] + kHandMass * hv.k * h * h;
-    hv.own = 1.0 / (s.w[hv.i] * mass);
-    s.w[hv.i] = 1.0 / mass;
-  }
+  std::vector<Held> held_by_hand = weigh_hands(s, dt, h);
   const double hand_decay = std::exp(-2.0 / std::sqrt(kHandMass));  // critical: 2 omega h a substep
 
   Vec3* X = s.x.data();

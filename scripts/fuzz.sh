@@ -46,7 +46,8 @@ case "$target" in
   fuzz_garment_obj | fuzz_garment_glb | fuzz_body) leaks=0 ;;
   *) leaks=1 ;;
 esac
-export ASAN_OPTIONS=detect_leaks=$leaks:abort_on_error=1:allocator_may_return_null=1:verify_asan_link_order=0
+# intercept_tls_get_addr=0: as in scripts/sanitize.sh (docs/testing.md, "LeakSanitizer's tracer").
+export ASAN_OPTIONS=detect_leaks=$leaks:abort_on_error=1:allocator_may_return_null=1:verify_asan_link_order=0:intercept_tls_get_addr=0
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 started=$SECONDS
 set +e

@@ -16,12 +16,14 @@ def tunic(tmp_path_factory):
     return settings, experiment.run_experiment(settings)
 
 
-def test_it_is_made_by_the_papers_four_operations(tunic):
+def test_it_is_made_by_the_papers_operations(tunic):
     settings, r = tunic
     tools = [j.tool for j in r.session.journal]
     assert tools[:2] == ["cut", "cut"]
+    # The needle, and the hands that hold the hems apart as the panels fall and carry each seam's
+    # first pair together.
     sewn = tools[2:tools.index("paint")]
-    assert sewn and set(sewn) == {"sew"}
+    assert "sew" in sewn and set(sewn) <= {"sew", "pinch"}
     assert set(tools[tools.index("paint"):]) == {"paint"}
     assert r.garment.vertex_count >= 5000 and settings.spacing <= 0.015
 

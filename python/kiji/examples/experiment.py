@@ -2,9 +2,11 @@
 
 1. Drape: a rectangle of cotton is laid over the default body and falls on it under gravity.
 2. Cut: an opening for the head is cut around the crown and the cloth over the head is removed; the
-   cloth falls through the opening onto the shoulders, a front panel and a back panel.
+   cloth falls through the opening onto the shoulders, a front panel and a back panel, held flat by
+   their hems' corners (four pinches) as they fall.
 3. Sew: the front's sides are sewn to the back's, from the hem up to the armholes, pair of border
-   vertices by pair as a tailor sews a seam: one piece, a tunic with a neck opening and two armholes.
+   vertices by pair as a tailor sews a seam, the first pairs carried together by hand (pinch): one
+   piece, a tunic with a neck opening and two armholes.
 4. Paint: letters on the chest (the paper painted JAPAN; here KIJI by default).
 
 It writes the garment (.glb, with its painted texture), a picture of it from the front, and the four
@@ -48,7 +50,7 @@ class Settings:
     length: float = 1.44          # m, front hem over the shoulders to back hem (pattern y -> world -z)
     spacing: float = 0.012        # m between vertices
     material: str = "cotton"
-    drape_seconds: float = 2.8    # the cloth falls onto the head (docs/benchmarks.md: why 2.8)
+    drape_seconds: float = 2.8    # the cloth falls onto the head (1.8-3.5 s all make the tunic: docs/benchmarks.md)
     fall_seconds: float = 1.2     # after the head opening is cut, it falls onto the shoulders
     settle_seconds: float = 0.8   # after sewing
     neck: float = 0.12            # m, half the width of the head opening (pattern x)
@@ -158,19 +160,64 @@ def _front_camera(body: kiji.Body, size: tuple) -> kiji.Camera:
     return camera
 
 
-def _sew_pair(s: kiji.Session, g: kiji.Garment, front: int, back: int, *, first: bool, outward: np.ndarray,
-              spacing: float) -> None:
-    """Sews border vertex `front` to `back` with the needle (sew in 'pinch' mode). The first pair of a
-    seam is carried round the outside of the cloth over half a second to beside `back` (so that the
-    needle meets no other border on its way), the cloth following; then the pair is joined with the
-    cloth held still, so that `back` is where the needle ends: the first pair is tacked, a later one,
-    next to the seam's end, merged. Raises kiji.Error if the pair is not joined."""
-    if first:
+def _fall_with_hems_held_apart(s: kiji.Session, g: kiji.Garment, pattern: "_Pattern", st: Settings) -> None:
+    """The panels fall onto the shoulders with the corners of each hem held apart, as a tailor holds a
+    panel by its corners so that it hangs flat: a fold the drape left in a panel is drawn out before
+    the panel lands, where it would otherwise be sewn into the side seam. Four hands (pinches) carry
+    the corners out to the cloth's width over the first quarter of the fall; they go down with the
+    cloth (each pulls a little below its corner, never holding it up) and let go for the last
+    quarter."""
+    nx, ny = pattern.nx, pattern.ny
+    corners = [pattern.id[(column, row)] for row in (0, ny - 1) for column in (0, nx - 1)]
+    starts = _positions_of(g, corners)
+    across = 0.95 * 0.5 * st.width * np.array([-1.0, 1.0, -1.0, 1.0])
+    frame = 1.0 / s.frame_rate
+    steps = max(4, round(st.fall_seconds / frame))
+    users = range(len(corners))
+    for user, p in zip(users, starts):
+        s.begin("pinch", kiji.ToolEvent("begin", p, time=s.time), user=user)
+    for k in range(1, steps - steps // 4 + 1):
+        out = min(1.0, k / (steps // 4))
+        t = s.time + frame  # the first hand's event steps the simulation; the others share it
+        for user, start, x, now in zip(users, starts, across, _positions_of(g, corners)):
+            goal = np.array([start[0] + out * (x - start[0]), now[1] - 0.004, now[2]])
+            if k == steps - steps // 4:
+                s.end(kiji.ToolEvent("end", goal, time=t), user=user)
+            else:
+                s.update(kiji.ToolEvent("move", goal, time=t), user=user)
+    s.simulate((steps // 4) * frame)
+
+
+def _carry(s: kiji.Session, g: kiji.Garment, pairs: list, spacing: float) -> None:
+    """Carries the `front` vertex of each (front, back, outward) pair round the outside of the cloth to
+    beside its `back` over 0.4 s, each with a hand of its own (a pinch of that vertex alone), all at
+    once, the cloth following. A hand sews nothing on its way: a needle carried this far met the
+    crumpled border it pulled along and tacked it to itself. Both sides at once, so that neither
+    seam pulls the garment its way before the other."""
+    frame = 1.0 / s.frame_rate
+    paths = []
+    for front, back, outward in pairs:
         a, b = _positions_of(g, [front, back])
         detour = 2.5 * spacing * outward
         legs = [(a, a + detour, 6), (a + detour, b + detour, 18)]
-        s.sew(np.vstack([a] + [p + (q - p) * (np.arange(1, n + 1)[:, None] / n) for p, q, n in legs]),
-              mode="pinch", distance=0.5 * spacing)
+        paths.append(np.vstack([a] + [p + (q - p) * (np.arange(1, n + 1)[:, None] / n) for p, q, n in legs]))
+    last = len(paths[0]) - 1
+    for k in range(last + 1):
+        t = s.time + (frame if k else 0.0)  # the first hand's event steps the simulation; the others share it
+        for user, path in enumerate(paths):
+            if k == 0:
+                s.begin("pinch", kiji.ToolEvent("begin", path[k], time=t), user=user, grab_radius=0.0,
+                        stiffness=200.0)
+            elif k == last:
+                s.end(kiji.ToolEvent("end", path[k], time=t), user=user)
+            else:
+                s.update(kiji.ToolEvent("move", path[k], time=t), user=user)
+
+
+def _join(s: kiji.Session, g: kiji.Garment, front: int, back: int, spacing: float) -> None:
+    """Sews border vertex `front` to `back` with the needle (sew in 'pinch' mode), the cloth held
+    still, so that `back` is where the needle ends: the first pair of a seam is tacked, a later one,
+    next to the seam's end, merged. Raises kiji.Error if the pair is not joined."""
     rows = {int(v): i for i, v in enumerate(g.vertex_ids)}
     tacks = len(g.tacks)
     a, b = _positions_of(g, [front, back])
@@ -263,21 +310,28 @@ def run_experiment(settings: Settings = Settings()) -> Result:
     rows = {int(v): i for i, v in enumerate(g.vertex_ids)}
     g.remove_piece(int(np.nonzero((g.faces == rows[crown]).any(axis=1))[0][0]))
     s.simulating = True
-    s.simulate(st.fall_seconds)
+    _fall_with_hems_held_apart(s, g, pattern, st)
     _say(st, f"  2. cut the head opening and took away the cloth over the head: it fell onto the shoulders")
     stage_done("cut")
 
     # 3. Sew the sides, front border to back border, from the hem up to the armholes. A pair a third
-    #    of the way up is brought together first, slowly, and tacked; every next pair, up to the
-    #    armhole and then down to the hem, is a border vertex or two apart and is joined in one step:
-    #    the seam closes behind the needle as a zip does.
+    #    of the way up each side is carried together first, slowly, by two hands, and tacked; every
+    #    next pair, up to the armhole and then down to the hem, is a border vertex or two apart and is
+    #    joined in one step: the seam closes behind the needle as a zip does.
     last_row = _last_seam_row(st)
     start_row = round(st.seam_start * last_row)
     order = list(range(start_row, last_row + 1)) + list(range(start_row - 1, -1, -1))
     for row in order:
-        for column, outward in ((0, -1.0), (nx - 1, 1.0)):
-            _sew_pair(s, g, pattern.id[(column, row)], pattern.id[(column, ny - 1 - row)], first=row == start_row,
-                      outward=np.array([outward, 0.0, 0.0]), spacing=st.spacing)
+        pairs = [(pattern.id[(column, row)], pattern.id[(column, ny - 1 - row)], np.array([outward, 0.0, 0.0]))
+                 for column, outward in ((0, -1.0), (nx - 1, 1.0))]
+        # The first pairs, and any later pair the cloth has not drawn within two and a half spacings
+        # (joined where it is, its vertex would jump that far and fold the seam), are carried first.
+        far = [p for p in pairs if row == start_row or
+               np.linalg.norm(np.subtract(*_positions_of(g, p[:2]))) > 2.5 * st.spacing]
+        if far:
+            _carry(s, g, far, st.spacing)
+        for front, back, _ in pairs:
+            _join(s, g, front, back, st.spacing)
         s.step(1)  # the seam draws the next pair together
     s.simulate(st.settle_seconds)
     loops = g.border_loops()
@@ -287,13 +341,25 @@ def run_experiment(settings: Settings = Settings()) -> Result:
         raise kiji.Error(f"experiment: after sewing the garment is {g.piece_count} pieces, not one")
     stage_done("sew")
 
-    # 4. Paint the letters on the chest, centred below the head opening.
+    # 4. Paint the letters on the chest below the head opening, centred on the body as the designer
+    #    sees it from the front: the sewn tunic may hang turned a little about the body (the panels
+    #    twist by a few centimetres as they fall onto the shoulders), so the text is moved along the
+    #    cloth until its middle is on the body's midline.
     s.simulating = False
     top = centre_v - st.neck_depth - st.text_drop
     positions, faces, uvs = g.positions, g.faces, g.uvs
+    lines = _letter_strokes(st.text, st.letter_height)
+    across = centre_u
+    for _ in range(3):
+        uv = np.vstack(lines) + np.array([across, top])
+        points, _ = point_at_uv(g, uv / scale, positions=positions, faces=faces, uvs=uvs)
+        points = points[~np.isnan(points).any(axis=1)]
+        if not len(points):
+            break
+        across -= points[:, 0].mean()  # pattern x runs with world x across the front
     strokes = 0
-    for line in _letter_strokes(st.text, st.letter_height):
-        uv = (line + np.array([centre_u, top])) / scale
+    for line in lines:
+        uv = (line + np.array([across, top])) / scale
         points, normals = point_at_uv(g, uv, positions=positions, faces=faces, uvs=uvs)
         ok = ~np.isnan(points).any(axis=1)
         if ok.sum() < 2:

@@ -13,7 +13,7 @@ It writes the garment (.glb, with its painted texture), a picture of it from the
 stages side by side as the paper's figure 8 shows them, and prints the checks a designer makes.
 
     kiji run python/kiji/examples/experiment.py --out out/garment.glb --picture out/garment.png
-    python -m kiji.examples.experiment --spacing 0.03       # a coarser cloth, in a few seconds
+    python -m kiji.examples.experiment --spacing 0.02       # a coarser cloth, in a few seconds
 
 Every size is a parameter (see --help). run_experiment() returns the garment and its checks.
 """

@@ -14,8 +14,10 @@ rm -rf "$work" && mkdir -p "$work"
 failures=0
 fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
 
+# Each xvfb-run is given an authority file of its own (-f), so that it makes no temporary folder: now
+# and then it could not remove that folder and exited 5 in place of the app's status (docs/testing.md).
 echo "1. joining with a key file that does not exist: a message, the session goes on unshared, exit 1"
-"$xvfb_run" -a -s "-screen 0 1600x1200x24" "$studio" --garment rect:0.5,0.5,0.05 --join --key-file "$work/no-such.key" \
+"$xvfb_run" -a -f "$work/nokey.Xauthority" -s "-screen 0 1600x1200x24" "$studio" --garment rect:0.5,0.5,0.05 --join --key-file "$work/no-such.key" \
   --quit-after 0.5 >"$work/nokey.txt" 2>&1
 rc=$?
 [ $rc -eq 1 ] || fail "exit $rc, not 1"
@@ -23,7 +25,7 @@ grep -q "The session was not joined (it goes on unshared): the key file '$work/n
   { fail "no message about the key file:"; cat "$work/nokey.txt"; }
 
 echo "2. hosting on a network LCM cannot open: a message naming it, exit 1"
-"$xvfb_run" -a -s "-screen 0 1600x1200x24" "$studio" --garment rect:0.5,0.5,0.05 --host --key-file "$work/made.key" \
+"$xvfb_run" -a -f "$work/badurl.Xauthority" -s "-screen 0 1600x1200x24" "$studio" --garment rect:0.5,0.5,0.05 --host --key-file "$work/made.key" \
   --url "udpm://999.0.0.1:7667" --quit-after 0.5 >"$work/badurl.txt" 2>&1
 rc=$?
 [ $rc -eq 1 ] || fail "exit $rc, not 1"
@@ -46,7 +48,7 @@ unshare -rn bash -uo pipefail -c '
   ip link set lo multicast on
   ip route add 224.0.0.0/4 dev lo
   # The app makes the key (it hosts with a key file that does not exist yet); the peer waits for it.
-  "$KIJI_XVFB_RUN" -a -s "-screen 0 1600x1200x24" "$KIJI_STUDIO" --window 1000x700 \
+  "$KIJI_XVFB_RUN" -a -f "$KIJI_WORK/studio.Xauthority" -s "-screen 0 1600x1200x24" "$KIJI_STUDIO" --window 1000x700 \
     --body /usr/share/assimp/models/Collada/human.zae --garment rect:0.6,0.6,0.02 --device none \
     --host --name studio --key-file "$KIJI_WORK/session.key" --seconds 6 --quit-after $KIJI_LIMIT60 \
     --export "$KIJI_WORK/studio.glb" --screenshot "$KIJI_WORK/studio.png" --save-peers "$KIJI_WORK/peers.json" \
@@ -114,14 +116,14 @@ unshare -rn bash -uo pipefail -c '
   ip link set lo multicast on
   ip route add 224.0.0.0/4 dev lo
   w=$KIJI_WORK/two
-  "$KIJI_XVFB_RUN" -a -s "-screen 0 1600x1200x24" "$KIJI_STUDIO" --window 1000x700 \
+  "$KIJI_XVFB_RUN" -a -f "$w/ana.Xauthority" -s "-screen 0 1600x1200x24" "$KIJI_STUDIO" --window 1000x700 \
     --body /usr/share/assimp/models/Collada/human.zae --garment rect:0.6,0.6,0.02 --device none \
     --host --name ana --key-file "$w/session.key" --seconds 8 --quit-after $KIJI_LIMIT90 \
     --export "$w/ana.glb" --save-peers "$w/ana.json" > "$w/ana.txt" 2>&1 &
   ana=$!
   for i in $(seq 300); do [ -s "$w/session.key" ] && break; sleep 0.1; done
   # The second app joins before the pull begins: a join would cancel a stroke held past its wait.
-  "$KIJI_XVFB_RUN" -a -s "-screen 0 1600x1200x24" "$KIJI_STUDIO" --window 1000x700 --device none \
+  "$KIJI_XVFB_RUN" -a -f "$w/ben.Xauthority" -s "-screen 0 1600x1200x24" "$KIJI_STUDIO" --window 1000x700 --device none \
     --join --name ben --key-file "$w/session.key" --quit-after $KIJI_LIMIT90 \
     --export "$w/ben.glb" --screenshot "$w/ben.png" --save-peers "$w/ben.json" > "$w/ben.txt" 2>&1 &
   ben=$!

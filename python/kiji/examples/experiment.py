@@ -160,6 +160,22 @@ def _front_camera(body: kiji.Body, size: tuple) -> kiji.Camera:
     return camera
 
 
+def _hands(s: kiji.Session, starts, goals, frames: int, **pinch) -> None:
+    """Pinches the cloth at each of `starts`, a hand each (users 0, 1, ...), moves the hands a frame at a
+    time to goals(k) for k = 1 ... frames, and lets go at the last. The first hand's event steps the
+    simulation; the others share its step."""
+    frame = 1.0 / s.frame_rate
+    for user, p in enumerate(starts):
+        s.begin("pinch", kiji.ToolEvent("begin", p, time=s.time), user=user, **pinch)
+    for k in range(1, frames + 1):
+        t = s.time + frame
+        for user, goal in enumerate(goals(k)):
+            if k == frames:
+                s.end(kiji.ToolEvent("end", goal, time=t), user=user)
+            else:
+                s.update(kiji.ToolEvent("move", goal, time=t), user=user)
+
+
 def _fall_with_hems_held_apart(s: kiji.Session, g: kiji.Garment, pattern: "_Pattern", st: Settings) -> None:
     """The panels fall onto the shoulders with the corners of each hem held apart, as a tailor holds a
     panel by its corners so that it hangs flat: a fold the drape left in a panel is drawn out before
@@ -171,21 +187,15 @@ def _fall_with_hems_held_apart(s: kiji.Session, g: kiji.Garment, pattern: "_Patt
     corners = [pattern.id[(column, row)] for row in (0, ny - 1) for column in (0, nx - 1)]
     starts = _positions_of(g, corners)
     across = 0.95 * 0.5 * st.width * np.array([-1.0, 1.0, -1.0, 1.0])
-    frame = 1.0 / s.frame_rate
-    steps = max(4, round(st.fall_seconds / frame))
-    users = range(len(corners))
-    for user, p in zip(users, starts):
-        s.begin("pinch", kiji.ToolEvent("begin", p, time=s.time), user=user)
-    for k in range(1, steps - steps // 4 + 1):
+    steps = max(4, round(st.fall_seconds * s.frame_rate))
+
+    def goals(k: int) -> list:
         out = min(1.0, k / (steps // 4))
-        t = s.time + frame  # the first hand's event steps the simulation; the others share it
-        for user, start, x, now in zip(users, starts, across, _positions_of(g, corners)):
-            goal = np.array([start[0] + out * (x - start[0]), now[1] - 0.004, now[2]])
-            if k == steps - steps // 4:
-                s.end(kiji.ToolEvent("end", goal, time=t), user=user)
-            else:
-                s.update(kiji.ToolEvent("move", goal, time=t), user=user)
-    s.simulate((steps // 4) * frame)
+        return [np.array([start[0] + out * (x - start[0]), now[1] - 0.004, now[2]])
+                for start, x, now in zip(starts, across, _positions_of(g, corners))]
+
+    _hands(s, starts, goals, steps - steps // 4)
+    s.simulate((steps // 4) / s.frame_rate)
 
 
 def _carry(s: kiji.Session, g: kiji.Garment, pairs: list, spacing: float) -> None:
@@ -194,24 +204,14 @@ def _carry(s: kiji.Session, g: kiji.Garment, pairs: list, spacing: float) -> Non
     once, the cloth following. A hand sews nothing on its way: a needle carried this far met the
     crumpled border it pulled along and tacked it to itself. Both sides at once, so that neither
     seam pulls the garment its way before the other."""
-    frame = 1.0 / s.frame_rate
     paths = []
     for front, back, outward in pairs:
         a, b = _positions_of(g, [front, back])
         detour = 2.5 * spacing * outward
         legs = [(a, a + detour, 6), (a + detour, b + detour, 18)]
         paths.append(np.vstack([a] + [p + (q - p) * (np.arange(1, n + 1)[:, None] / n) for p, q, n in legs]))
-    last = len(paths[0]) - 1
-    for k in range(last + 1):
-        t = s.time + (frame if k else 0.0)  # the first hand's event steps the simulation; the others share it
-        for user, path in enumerate(paths):
-            if k == 0:
-                s.begin("pinch", kiji.ToolEvent("begin", path[k], time=t), user=user, grab_radius=0.0,
-                        stiffness=200.0)
-            elif k == last:
-                s.end(kiji.ToolEvent("end", path[k], time=t), user=user)
-            else:
-                s.update(kiji.ToolEvent("move", path[k], time=t), user=user)
+    _hands(s, [path[0] for path in paths], lambda k: [path[k] for path in paths], len(paths[0]) - 1,
+           grab_radius=0.0, stiffness=200.0)
 
 
 def _join(s: kiji.Session, g: kiji.Garment, front: int, back: int, spacing: float) -> None:

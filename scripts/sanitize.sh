@@ -51,7 +51,7 @@ for run in "${runs[@]}"; do
       # default-body drape alone takes 12 minutes; test_cli runs the drape and the bench), and not the
       # app, the installed tool or the peer processes. Each program's tests carry its name as a label.
       short=()
-      for src in tests/test_*.cpp; do
+      for src in tests/core/*/test_*.cpp tests/core/*/*/test_*.cpp tests/plugins/test_*.cpp tests/apps/test_*.cpp; do
         name=$(basename "$src" .cpp)
         case "$name" in test_drape | test_cli) ;; *) short+=("$name") ;; esac
       done

@@ -2,7 +2,7 @@
 // never a crash. The first byte picks a message type and the rest is its body, sealed with the
 // session's key as a member would seal it, so that the fuzzer reaches every body decoder behind the
 // authentication; the raw bytes are also given as they came (the checks before authentication).
-#include "peer_wire.h"
+#include "net/peer_wire.h"
 #include "kiji/error.h"
 #include "kiji/garment.h"
 #include "kiji/pattern.h"

@@ -52,8 +52,8 @@ def run_and_check_undo(s, g, tool, stroke, **params):
 
 @pytest.fixture
 def probe_dir():
-    """The probe tool of tests/plugins, built by the C++ build (a third-party plugin for the package)."""
-    d = os.environ.get("KIJI_TEST_PROBE_DIR", os.path.join(REPO, "build", "tests", "plugins", "good"))
+    """The probe tool of tests/fixtures/plugins, built by the C++ build (a third-party plugin for the package)."""
+    d = os.environ.get("KIJI_TEST_PROBE_DIR", os.path.join(REPO, "build", "tests", "fixtures", "plugins", "good"))
     if not os.path.isfile(os.path.join(d, "kiji_probe.json")):
         pytest.fail(f"the probe tool is not built in {d}: build the C++ tests first (scripts/setup.sh)")
     return d

@@ -1,4 +1,4 @@
-"""The tools driven from Python give what tests/test_tools.cpp checks in C++, case by case."""
+"""The tools driven from Python give what tests/plugins/test_tools.cpp checks in C++, case by case."""
 import numpy as np
 import pytest
 

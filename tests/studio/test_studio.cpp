@@ -9,7 +9,7 @@
 #include "kiji/journal_file.h"
 #include "kiji/session.h"
 
-#include "hd_standin/hd_record.h"
+#include "fixtures/hd_standin/hd_record.h"
 
 #include <QCheckBox>
 #include <QComboBox>

@@ -9,6 +9,7 @@
 #pragma once
 
 #include "kiji/body.h"
+#include "kiji/codec.h"
 #include "kiji/garment.h"
 #include "kiji/params.h"
 #include "kiji/solver.h"
@@ -101,35 +102,10 @@ const char* operation_kind(const OperationData& data);
 // completes): tool strokes, adding, removing and setting garments.
 bool changes_garments(const OperationData& data);
 
-// --- binary forms ---
-// Version of the binary forms below; a decoder refuses a later one, naming both.
-constexpr std::uint16_t kOperationFormatVersion = 1;
-
-// Limits a decoder enforces on outside bytes (a file, a network message) before allocating.
-struct DecodeLimits {
-  std::size_t max_vertices = 4'000'000;
-  std::size_t max_faces = 8'000'000;
-  std::size_t max_texture_side = 16384;
-  std::size_t max_string = 4096;
-  std::size_t max_params = 256;
-};
-
+// --- binary forms (garments and bodies: kiji/codec.h) ---
 std::string encode_operation(const Operation& op);
 // Throws InputError saying what is malformed (and at which byte) for bytes that are not a whole,
 // valid operation of a version this Kiji reads.
 Operation decode_operation(std::string_view bytes, const DecodeLimits& limits = {});
-
-// A garment's whole state (mesh with every property, material, texture, tacks, and where its cloth
-// sleeps: Garment::sleep_record), exactly: doubles are kept bit for bit, and vertex indices (holes
-// included) are kept. Bytes written before the sleep record was part of them decode, awake.
-std::string encode_garment(const Garment& garment);
-Garment decode_garment(std::string_view bytes, const DecodeLimits& limits = {});
-
-// A body's geometry and name.
-std::string encode_body(const Body& body);
-Body decode_body(std::string_view bytes, const DecodeLimits& limits = {});
-
-// A 64-bit FNV-1a hash of bytes: names payloads and states (not a security measure).
-std::uint64_t hash_bytes(std::string_view bytes, std::uint64_t seed = 0xcbf29ce484222325ull);
 
 }  // namespace kiji

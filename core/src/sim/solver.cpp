@@ -1,0 +1,849 @@
+// Solver: parameters, input checking, the flat arrays mirrored from the mesh, measures.
+// The two models are in solver_xpbd.cpp and solver_mass_spring.cpp, collisions in
+// solver_collide.cpp.
+#include "kiji/solver.h"
+
+#include "kiji/error.h"
+#include "base/parallel.h"
+#include "sim/solver_state.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <queue>
+#include <sstream>
+
+namespace kiji {
+
+struct Solver::State : SolverArrays {};
+
+SolverModel parse_solver_model(const std::string& name) {
+  if (name == "xpbd") return SolverModel::Xpbd;
+  if (name == "mass_spring" || name == "mass-spring") return SolverModel::MassSpring;
+  throw InputError("unknown solver model '" + name + "': use 'xpbd' or 'mass_spring'");
+}
+
+std::string solver_model_name(SolverModel model) {
+  return model == SolverModel::MassSpring ? "mass_spring" : "xpbd";
+}
+
+int solver_threads() { return parallel::thread_count(); }
+
+namespace {
+template <typename T>
+void require(bool ok, const char* field, const T& value, const char* what) {
+  if (ok) return;
+  std::ostringstream msg;
+  msg << "solver parameter '" << field << "' is " << value << ": it must be " << what;
+  throw InputError(msg.str());
+}
+std::string vec_text(const Vec3& v) {
+  std::ostringstream s;
+  s << "(" << v.x() << ", " << v.y() << ", " << v.z() << ")";
+  return s.str();
+}
+Vertex vtx(int i) { return Vertex(static_cast<Mesh::size_type>(i)); }
+
+// The garment's own state, checked before the solver reads it.
+// The first index in [0, n) where bad(i) holds, or -1: in parallel pieces, the first piece's
+// first (what one loop in order would find).
+template <typename F>
+int first_where(int n, F bad) {
+  const int pieces = parallel::piece_count(n, 4096);
+  std::vector<int> first(pieces, -1);
+  parallel::for_each(pieces, [&](int piece) {
+    for (int i = parallel::piece_begin(n, piece, pieces), e = parallel::piece_begin(n, piece + 1, pieces); i < e; ++i)
+      if (bad(i)) {
+        first[piece] = i;
+        return;
+      }
+  });
+  for (int f : first)
+    if (f >= 0) return f;
+  return -1;
+}
+
+void check_garment(const Garment& garment) {
+  const Mesh& m = garment.mesh();
+  const int bad_vertex = first_where(static_cast<int>(garment.vertex_capacity()), [&](int i) {
+    const Vertex v(i);
+    return !m.is_removed(v) && (!all_finite(garment.position(v)) || !all_finite(garment.velocity(v)) ||
+                                !std::isfinite(garment.inverse_mass(v)) || garment.inverse_mass(v) < 0);
+  });
+  if (bad_vertex >= 0)
+    throw InputError("garment '" + garment.name + "' has a non-finite position, velocity or mass at vertex " +
+                     std::to_string(bad_vertex) + ": reset or reload the garment");
+  const int bad_edge = first_where(static_cast<int>(m.number_of_edges() + m.number_of_removed_edges()), [&](int k) {
+    const Edge e(k);
+    if (m.is_removed(e)) return false;
+    const double r = garment.rest_length(e);
+    return !std::isfinite(r) || r <= 0;
+  });
+  if (bad_edge >= 0)
+    throw InputError("garment '" + garment.name + "' has a rest length of " +
+                     std::to_string(garment.rest_length(Edge(bad_edge))) + " on edge " + std::to_string(bad_edge) +
+                     ": rest lengths must be positive");
+}
+
+void build_if_needed(SolverArrays& s, const Garment& garment) {
+  if (!s.built || s.garment != &garment || s.topology != garment.topology_version() ||
+      s.n != garment.vertex_capacity())
+    solver_detail::rebuild(s, garment);
+}
+}  // namespace
+
+void SolverParams::validate() const {
+  require(model == SolverModel::Xpbd || model == SolverModel::MassSpring, "model",
+          static_cast<int>(model), "xpbd or mass_spring");
+  require(all_finite(gravity), "gravity", vec_text(gravity), "a finite vector in m/s^2");
+  require(substeps >= 1 && substeps <= 1000, "substeps", substeps, "between 1 and 1000");
+  require(iterations >= 1 && iterations <= 100, "iterations", iterations, "between 1 and 100");
+  require(std::isfinite(spring_k) && spring_k > 0, "spring_k", spring_k,
+          "a positive finite spring constant (eq. 3 of the paper)");
+  require(std::isfinite(spring_damping) && spring_damping >= 0, "spring_damping", spring_damping,
+          "zero or a positive finite damping (gamma of eq. 1)");
+  require(std::isfinite(strain_limit) && strain_limit >= 0 && strain_limit < 1, "strain_limit", strain_limit,
+          "between 0 (off) and 1 (a fraction of the rest length)");
+  require(std::isfinite(local_radius) && local_radius >= 0, "local_radius", local_radius,
+          "zero (no local region) or a positive finite radius in metres");
+  require(all_finite(local_center), "local_center", vec_text(local_center), "a finite point");
+  require(std::isfinite(sleep_after) && sleep_after >= 0, "sleep_after", sleep_after,
+          "zero (never sleep) or a positive finite time in seconds");
+  require(std::isfinite(sleep_distance) && sleep_distance > 0 && sleep_distance < 1, "sleep_distance", sleep_distance,
+          "a positive distance in metres, under 1 (cloth moving less than this is at rest)");
+}
+
+Solver::Solver(SolverParams params) : state_(std::make_unique<State>()) {
+  params.validate();
+  params_ = params;
+}
+
+Solver::~Solver() = default;
+
+void Solver::set_params(const SolverParams& params) {
+  params.validate();
+  params_ = params;
+}
+
+void Solver::set_body(const Body* body) {
+  if (body == body_ && (body == nullptr || collider_)) return;
+  body_ = body;
+  collider_ = body ? std::make_unique<BodyCollider>(*body) : nullptr;
+  solver_detail::set_body(*state_, body);
+}
+
+void Solver::add_external_force(Vertex v, const Vec3& force) { forces_.push_back({v, force}); }
+
+int Solver::add_attachment(Vertex v, const Vec3& target, double stiffness, bool firm) {
+  if (!all_finite(target)) throw InputError("an attachment's target point is not finite");
+  if (!std::isfinite(stiffness) || stiffness <= 0)
+    throw InputError("an attachment's stiffness is " + std::to_string(stiffness) + ": it must be positive, in N/m");
+  attachments_.push_back({next_attachment_, v, target, target, stiffness, firm});
+  return next_attachment_++;
+}
+
+void Solver::move_attachment(int id, const Vec3& target) {
+  if (!all_finite(target)) throw InputError("an attachment's target point is not finite");
+  for (auto& a : attachments_)
+    if (a.id == id) a.target = target;
+}
+
+void Solver::remove_attachment(int id) {
+  attachments_.erase(std::remove_if(attachments_.begin(), attachments_.end(), [&](const Attachment& a) { return a.id == id; }),
+                     attachments_.end());
+}
+
+namespace solver_detail {
+
+namespace {
+std::uint32_t spread_bits(std::uint32_t x) {  // 10 bits -> every third bit
+  x &= 0x3ff;
+  x = (x | (x << 16)) & 0x030000ff;
+  x = (x | (x << 8)) & 0x0300f00f;
+  x = (x | (x << 4)) & 0x030c30c3;
+  x = (x | (x << 2)) & 0x09249249;
+  return x;
+}
+
+// Greedy colouring: a constraint gets the smallest colour none of its vertices has yet, so the
+// constraints of one colour share no vertex (they can be solved in parallel, Gauss-Seidel between
+// colours). Returns the permutation sorted by colour and the colour offsets.
+template <int K, typename GetVerts>
+void colour(std::size_t count, std::size_t n, GetVerts verts, std::vector<int>& perm,
+            std::vector<int>& offsets) {
+  std::vector<std::uint64_t> used(n, 0);
+  std::vector<int> col(count, 0);
+  int ncol = 0;
+  for (std::size_t c = 0; c < count; ++c) {
+    std::array<int, K> vs = verts(c);
+    std::uint64_t mask = 0;
+    for (int k = 0; k < K; ++k) mask |= used[vs[k]];
+    int colour_id = 0;
+    while (colour_id < 63 && (mask >> colour_id) & 1u) ++colour_id;  // 63 = overflow bucket
+    col[c] = colour_id;
+    if (colour_id < 63)
+      for (int k = 0; k < K; ++k) used[vs[k]] |= (std::uint64_t(1) << colour_id);
+    ncol = std::max(ncol, colour_id + 1);
+  }
+  offsets.assign(ncol + 1, 0);
+  for (std::size_t c = 0; c < count; ++c) ++offsets[col[c] + 1];
+  for (int k = 0; k < ncol; ++k) offsets[k + 1] += offsets[k];
+  std::vector<int> fill(offsets.begin(), offsets.end() - 1);
+  perm.assign(count, 0);
+  for (std::size_t c = 0; c < count; ++c) perm[fill[col[c]]++] = static_cast<int>(c);
+}
+
+// The order in which a set of constraints is solved, and its ranges (see SolverArrays): first each
+// block's own constraints (all their vertices in that block), block by block, each in colour
+// order; then the constraints across blocks, coloured among themselves. The blocks are solved
+// in parallel, each by one thread in sequence (no vertex is in two blocks), so a substep meets a
+// barrier between blocks and the rest, not between every two colours, and each block's vertices
+// stay in the core's cache while its constraints are solved. With one block, the constraints
+// within it are solved in sequence; a garment too small for two blocks is too small to share.
+template <int K, typename GetVerts>
+void schedule(std::size_t count, std::size_t n, const std::vector<int>& block, int blocks, GetVerts verts,
+              std::vector<int>& perm, std::vector<int>& offsets, std::vector<unsigned char>& kinds) {
+  std::vector<int> by_colour, colours;
+  colour<K>(count, n, verts, by_colour, colours);
+  std::vector<std::vector<int>> own(blocks);
+  std::vector<int> across;
+  for (int c : by_colour) {
+    const std::array<int, K> vs = verts(c);
+    const int b = block[vs[0]];
+    bool inside = true;
+    for (int k = 1; k < K; ++k) inside = inside && block[vs[k]] == b;
+    (inside ? own[b] : across).push_back(c);
+  }
+  perm.clear();
+  offsets.assign(1, 0);
+  kinds.clear();
+  for (const std::vector<int>& o : own) {
+    perm.insert(perm.end(), o.begin(), o.end());
+    offsets.push_back(static_cast<int>(perm.size()));
+    kinds.push_back(kinds.empty() ? SolverArrays::kFirstBlock : SolverArrays::kBlock);
+  }
+  std::vector<int> across_perm, across_offsets;
+  colour<K>(across.size(), n, [&](std::size_t q) { return verts(across[q]); }, across_perm, across_offsets);
+  for (std::size_t c = 0; c + 1 < across_offsets.size(); ++c) {
+    for (int q = across_offsets[c]; q < across_offsets[c + 1]; ++q) perm.push_back(across[across_perm[q]]);
+    offsets.push_back(static_cast<int>(perm.size()));
+    kinds.push_back(c == 63 ? SolverArrays::kSerial : SolverArrays::kGroup);  // 63: the overflow colour
+  }
+}
+
+// The long-range limits, level by level: anchors at least S edges apart (greedy in Morton
+// order), each joined to the anchors within 2 S edges by the shortest rest-length path.
+//
+// The anchor taken at an unmarked vertex is the one of it and its unmarked neighbours (on the same
+// side of the outline: inside, or on it) with the most edges, the one that reaches the most cloth
+// within S - 1 edges. Taking the vertex itself, as it came in Morton order, let the anchors follow
+// the triangulation: on make_rectangle's grid, whose diagonals alternate like a checkerboard, a
+// vertex has 8 edges or 4, and the anchors S = 2 apart were the 8-edge vertices (a quarter of
+// them) when the grid's side was odd, but often the 4-edge ones (every second vertex) when it was
+// even: 9.6 limits a vertex instead of 3.9, and every one of them is work in every substep. With
+// the choice, an
+// even side gets 3.8 a vertex; an odd side, whose anchors were already the 8-edge vertices, gets
+// the same limits, in the same order, as before.
+void build_long_range(SolverArrays& s) {
+  s.l_i.clear();
+  s.l_j.clear();
+  s.l_rest.clear();
+  const std::size_t n = s.n;
+  std::vector<int> hop(n, -1), mark(n, 0);
+  std::vector<char> anchor(n, 0);
+  std::vector<int> touched, queue;
+  using QE = std::pair<double, int>;
+  std::vector<std::array<int, 2>> li;
+  std::vector<double> lr;
+  std::vector<std::vector<std::size_t>> levels;
+  std::vector<int> tri_count(n, 0);  // fewer triangles than edges: a vertex on the outline
+  for (const auto& t : s.tris)
+    for (int k = 0; k < 3; ++k) ++tri_count[t[k]];
+  auto degree = [&](int v) { return s.nbr_begin[v + 1] - s.nbr_begin[v]; };
+  auto outline = [&](int v) { return tri_count[v] < degree(v); };
+  for (int S = 2; S <= 64; S *= 2) {
+    // Anchors: every vertex within S-1 edges of one, no two closer than S edges.
+    std::fill(anchor.begin(), anchor.end(), 0);
+    std::fill(mark.begin(), mark.end(), 0);
+    std::vector<int> anchors;
+    for (int a : s.order) {
+      if (mark[a]) continue;
+      const int first = a;
+      for (int k = s.nbr_begin[first]; k < s.nbr_begin[first + 1]; ++k) {
+        const int w = s.nbr[k];
+        if (!mark[w] && outline(w) == outline(first) && degree(w) > degree(a)) a = w;
+      }
+      anchor[a] = 1;
+      anchors.push_back(a);
+      queue.assign(1, a);
+      hop[a] = 0;
+      touched.assign(1, a);
+      mark[a] = 1;
+      for (std::size_t q = 0; q < queue.size(); ++q) {
+        const int u = queue[q];
+        if (hop[u] >= S - 1) continue;
+        for (int k = s.nbr_begin[u]; k < s.nbr_begin[u + 1]; ++k) {
+          const int w = s.nbr[k];
+          if (hop[w] >= 0) continue;
+          hop[w] = hop[u] + 1;
+          mark[w] = 1;
+          touched.push_back(w);
+          queue.push_back(w);
+        }
+      }
+      for (int u : touched) hop[u] = -1;
+    }
+    if (anchors.size() < 2) break;
+    std::size_t before = li.size();
+    // Join anchors: Dijkstra on rest lengths, no further than 2 S edges. The anchors in contiguous
+    // pieces, in parallel, each piece with its own scratch and its own list, joined in anchor order
+    // (the same limits in the same order as one thread would find).
+    const int na = static_cast<int>(anchors.size());
+    const int pieces = std::min(na, 4 * std::max(1, parallel::thread_count()));
+    std::vector<std::vector<std::array<int, 2>>> piece_li(pieces);
+    std::vector<std::vector<double>> piece_lr(pieces);
+    parallel::for_range(pieces, 1, [&](int p0, int p1) {
+      std::vector<double> dist(n, std::numeric_limits<double>::infinity());
+      std::vector<int> hops(n, -1), reached;
+      std::priority_queue<QE, std::vector<QE>, std::greater<QE>> pq;
+      for (int piece = p0; piece < p1; ++piece) {
+        const int a0 = parallel::piece_begin(na, piece, pieces), a1 = parallel::piece_begin(na, piece + 1, pieces);
+        for (int q = a0; q < a1; ++q) {
+          const int a = anchors[q];
+          reached.assign(1, a);
+          dist[a] = 0;
+          hops[a] = 0;
+          pq.push({0.0, a});
+          while (!pq.empty()) {
+            const auto [d, u] = pq.top();
+            pq.pop();
+            if (d > dist[u]) continue;
+            if (u != a && anchor[u] && u > a) {
+              piece_li[piece].push_back({a, u});
+              piece_lr[piece].push_back(d);
+            }
+            if (hops[u] >= 2 * S) continue;
+            for (int k = s.nbr_begin[u]; k < s.nbr_begin[u + 1]; ++k) {
+              const int w = s.nbr[k];
+              const double nd = d + s.nbr_rest[k];
+              if (nd < dist[w]) {
+                if (!std::isfinite(dist[w])) reached.push_back(w);
+                dist[w] = nd;
+                hops[w] = hops[u] + 1;
+                pq.push({nd, w});
+              }
+            }
+          }
+          for (int u : reached) {
+            dist[u] = std::numeric_limits<double>::infinity();
+            hops[u] = -1;
+          }
+        }
+      }
+    });
+    for (int piece = 0; piece < pieces; ++piece) {
+      li.insert(li.end(), piece_li[piece].begin(), piece_li[piece].end());
+      lr.insert(lr.end(), piece_lr[piece].begin(), piece_lr[piece].end());
+    }
+    std::vector<std::size_t> idx;
+    for (std::size_t k = before; k < li.size(); ++k) idx.push_back(k);
+    levels.push_back(idx);
+  }
+  // Coarse to fine, each level scheduled on its own (its blocks, then the limits across blocks).
+  s.l_ranges.assign(1, 0);
+  s.l_kinds.clear();
+  std::vector<int> perm, offsets;
+  std::vector<unsigned char> kinds;
+  for (auto it = levels.rbegin(); it != levels.rend(); ++it) {
+    const std::vector<std::size_t>& level = *it;
+    schedule<2>(level.size(), n, s.block, s.blocks, [&](std::size_t c) { return li[level[c]]; }, perm, offsets, kinds);
+    for (int q : perm) {
+      const std::size_t k = level[q];
+      s.l_i.push_back(li[k][0]);
+      s.l_j.push_back(li[k][1]);
+      s.l_rest.push_back(lr[k]);
+    }
+    const int base = s.l_ranges.back();
+    for (std::size_t c = 1; c < offsets.size(); ++c) s.l_ranges.push_back(base + offsets[c]);
+    s.l_kinds.insert(s.l_kinds.end(), kinds.begin(), kinds.end());
+  }
+}
+
+// A Bullet tree (btDbvt) over leaves in Morton order, split where the codes' highest differing
+// bit changes (a linear BVH, Karras 2012; halves where codes are equal): O(n) after the sort, and
+// on cloth its self-collision queries are as fast as btDbvt::optimizeTopDown's tree, whose
+// bottom-up pass over blocks of 128 leaves (and the one-by-one insertion before it) made a rebuild
+// cost more than the queries it serves (docs/benchmarks.md). Nodes are allocated as btDbvt
+// allocates its own (btAlignedAlloc, 16 bytes aligned), so the tree frees them as its own.
+btDbvtNode* build_node(const std::vector<std::pair<std::uint32_t, int>>& keys, int b, int e,
+                       const std::vector<btDbvtVolume>& volumes, btDbvtNode* parent,
+                       std::vector<btDbvtNode*>& leaf_of) {
+  btDbvtNode* node = new (btAlignedAlloc(sizeof(btDbvtNode), 16)) btDbvtNode();
+  node->parent = parent;
+  if (e - b == 1) {
+    const int id = keys[b].second;
+    node->childs[1] = nullptr;
+    node->data = reinterpret_cast<void*>(static_cast<std::intptr_t>(id));
+    node->volume = volumes[id];
+    leaf_of[id] = node;
+    return node;
+  }
+  int mid = b + (e - b) / 2;
+  const std::uint32_t diff = keys[b].first ^ keys[e - 1].first;
+  if (diff != 0) {
+    const std::uint32_t bit = std::uint32_t(1) << (31 - __builtin_clz(diff));
+    mid = static_cast<int>(std::partition_point(keys.begin() + b, keys.begin() + e,
+                                                [&](const auto& k) { return !(k.first & bit); }) -
+                           keys.begin());
+  }
+  node->childs[0] = build_node(keys, b, mid, volumes, node, leaf_of);
+  node->childs[1] = build_node(keys, mid, e, volumes, node, leaf_of);
+  Merge(node->childs[0]->volume, node->childs[1]->volume, node->volume);
+  return node;
+}
+
+void build_tree(btDbvt& tree, const std::vector<std::pair<std::uint32_t, int>>& keys,
+                const std::vector<btDbvtVolume>& volumes, std::vector<btDbvtNode*>& leaf_of) {
+  tree.clear();
+  if (keys.empty()) return;
+  tree.m_root = build_node(keys, 0, static_cast<int>(keys.size()), volumes, nullptr, leaf_of);
+  tree.m_leaves = static_cast<int>(keys.size());
+}
+
+// The triangles each vertex is never paired with in self-collision (those with a corner at it or
+// at a neighbour), as masks over their clusters (SolverArrays::excl_*).
+void build_self_exclusions(SolverArrays& s) {
+  static_assert(SolverArrays::kTriCluster <= 8, "a cluster's triangles are bits of one byte");
+  const std::size_t n = s.n;
+  std::vector<int> tri_slot(s.tris.size()), inc_begin(n + 1, 0), inc;
+  for (std::size_t q = 0; q < s.tcl_items.size(); ++q) tri_slot[s.tcl_items[q]] = static_cast<int>(q);
+  for (const auto& t : s.tris)
+    for (int u : t) ++inc_begin[u + 1];
+  for (std::size_t i = 0; i < n; ++i) inc_begin[i + 1] += inc_begin[i];
+  inc.resize(inc_begin[n]);
+  std::vector<int> fill(inc_begin.begin(), inc_begin.end() - 1);
+  for (std::size_t t = 0; t < s.tris.size(); ++t)
+    for (int u : s.tris[t]) inc[fill[u]++] = static_cast<int>(t);
+  s.excl_begin.assign(1, 0);
+  s.excl_cluster.clear();
+  s.excl_mask.clear();
+  std::vector<std::pair<int, int>> near;  // (cluster, bit)
+  for (int v : s.vcl_items) {
+    near.clear();
+    auto add = [&](int u) {
+      for (int k = inc_begin[u]; k < inc_begin[u + 1]; ++k) {
+        const int q = tri_slot[inc[k]];
+        near.emplace_back(q / SolverArrays::kTriCluster, q % SolverArrays::kTriCluster);
+      }
+    };
+    add(v);
+    for (int k = s.nbr_begin[v]; k < s.nbr_begin[v + 1]; ++k) add(s.nbr[k]);
+    std::sort(near.begin(), near.end());
+    for (std::size_t k = 0; k < near.size(); ++k) {
+      if (k == 0 || near[k].first != near[k - 1].first) {
+        s.excl_cluster.push_back(near[k].first);
+        s.excl_mask.push_back(0);
+      }
+      s.excl_mask.back() |= std::uint8_t(1u << near[k].second);
+    }
+    s.excl_begin.push_back(static_cast<int>(s.excl_cluster.size()));
+  }
+}
+
+double heron(double a, double b, double c) {
+  const double s = 0.5 * (a + b + c);
+  const double q = s * (s - a) * (s - b) * (s - c);
+  return q > 0 ? std::sqrt(q) : 0.0;
+}
+}  // namespace
+
+void rebuild(SolverArrays& s, const Garment& g) {
+  const Mesh& m = g.mesh();
+  const std::size_t n = g.vertex_capacity();
+  s.garment = &g;
+  s.topology = g.topology_version();
+  s.n = n;
+  s.alive.assign(n, 0);
+  s.moving.assign(n, 0);
+  s.x.assign(n, Vec3::Zero());
+  s.xp = s.x0 = s.v = s.fext = s.pred = s.unkick = s.x;
+  s.w.assign(n, 0.0);
+  s.surprise.assign(n, 0.0);
+  s.surprise_self.assign(n, 0.0);
+  s.held_up.assign(n, 0);
+  for (Vertex v : m.vertices()) s.alive[v.idx()] = 1;
+
+  // Spatial order of the vertices (for collision clusters): Morton code of the current positions.
+  Box3 box;
+  for (Vertex v : m.vertices()) box.extend(to_vec(m.point(v)));
+  std::vector<std::pair<std::uint32_t, int>> keyed;
+  keyed.reserve(m.number_of_vertices());
+  const Vec3 ext = box.isEmpty() ? Vec3::Ones() : Vec3(box.sizes().cwiseMax(1e-9));
+  auto morton = [&](const Vec3& p) {
+    const Vec3 q = ((p - box.min()).cwiseQuotient(ext) * 1023.0).cwiseMax(0.0).cwiseMin(1023.0);
+    return spread_bits(std::uint32_t(q.x())) | (spread_bits(std::uint32_t(q.y())) << 1) |
+           (spread_bits(std::uint32_t(q.z())) << 2);
+  };
+  for (Vertex v : m.vertices()) keyed.emplace_back(morton(to_vec(m.point(v))), static_cast<int>(v.idx()));
+  std::sort(keyed.begin(), keyed.end());
+  s.order.clear();
+  for (const auto& k : keyed) s.order.push_back(k.second);
+  const std::vector<std::pair<std::uint32_t, int>> vertex_keys = keyed;
+
+  // Edges, coloured.
+  std::vector<int> ei, ej;
+  std::vector<Edge> eh;
+  for (Edge e : m.edges()) {
+    const Halfedge h = m.halfedge(e);
+    ei.push_back(static_cast<int>(m.source(h).idx()));
+    ej.push_back(static_cast<int>(m.target(h).idx()));
+    eh.push_back(e);
+  }
+  // Blocks of about kBlockVertices vertices each, consecutive in the spatial order: compact patches
+  // of the cloth.
+  constexpr int kBlockVertices = 1024;
+  const int live = static_cast<int>(s.order.size());
+  s.blocks = std::clamp(live / kBlockVertices, 1, SolverArrays::kMaxBlocks);
+  s.block.assign(n, 0);
+  for (int r = 0; r < live; ++r) s.block[s.order[r]] = static_cast<int>(std::int64_t(r) * s.blocks / live);
+  std::vector<int> perm;
+  schedule<2>(ei.size(), n, s.block, s.blocks, [&](std::size_t c) { return std::array<int, 2>{ei[c], ej[c]}; }, perm,
+              s.e_ranges, s.e_kinds);
+  s.e_i.resize(perm.size());
+  s.e_j.resize(perm.size());
+  s.e_handle.resize(perm.size());
+  s.e_rest.assign(perm.size(), 0.0);
+  for (std::size_t k = 0; k < perm.size(); ++k) {
+    s.e_i[k] = ei[perm[k]];
+    s.e_j[k] = ej[perm[k]];
+    s.e_handle[k] = eh[perm[k]];
+  }
+
+  // Isometric bending (Bergou et al. 2006, "A quadratic bending model for inextensible surfaces")
+  // on every interior edge, from the rest lengths (the pattern is flat at rest).
+  std::vector<SolverArrays::Bend> bends;
+  for (Edge e : m.edges()) {
+    if (m.is_border(e)) continue;
+    const Halfedge h = m.halfedge(e), o = m.opposite(h);
+    const int a = static_cast<int>(m.source(h).idx()), b = static_cast<int>(m.target(h).idx());
+    const int c = static_cast<int>(m.target(m.next(h)).idx());
+    const int d = static_cast<int>(m.target(m.next(o)).idx());
+    if (c == d) continue;
+    const double lab = g.rest_length(e);
+    const double lbc = g.rest_length(m.edge(m.next(h))), lca = g.rest_length(m.edge(m.prev(h)));
+    const double lad = g.rest_length(m.edge(m.next(o))), ldb = g.rest_length(m.edge(m.prev(o)));
+    const double A0 = heron(lab, lbc, lca), A1 = heron(lab, lad, ldb);
+    if (!(A0 > 1e-14) || !(A1 > 1e-14)) continue;
+    const double c01 = (lab * lab + lca * lca - lbc * lbc) / (4 * A0);  // angle at a, triangle abc
+    const double c02 = (lab * lab + lad * lad - ldb * ldb) / (4 * A1);  // angle at a, triangle abd
+    const double c03 = (lab * lab + lbc * lbc - lca * lca) / (4 * A0);  // angle at b, triangle abc
+    const double c04 = (lab * lab + ldb * ldb - lad * lad) / (4 * A1);  // angle at b, triangle abd
+    // Bergou's weight is 3 / (A0 + A1) for the integral of the squared mean-curvature normal; with
+    // 1 / (A0 + A1) the energy (k_b / 2) |C|^2 summed over edges matches (k_b / 2) kappa^2 per unit
+    // area on a cylinder (checked on this triangulation to within the border edges' share), so
+    // k_b is the fabric's bending rigidity in N m.
+    const double sc = std::sqrt(1.0 / (A0 + A1));
+    SolverArrays::Bend bd{{a, b, c, d},
+                          {sc * (c03 + c04), sc * (c01 + c02), sc * (-c01 - c03), sc * (-c02 - c04)}};
+    bends.push_back(bd);
+  }
+  schedule<4>(bends.size(), n, s.block, s.blocks,
+              [&](std::size_t c) { return std::array<int, 4>{bends[c].v[0], bends[c].v[1], bends[c].v[2], bends[c].v[3]}; },
+              perm, s.b_ranges, s.b_kinds);
+  s.bends.resize(perm.size());
+  for (std::size_t k = 0; k < perm.size(); ++k) s.bends[k] = bends[perm[k]];
+
+  // Triangles and neighbours.
+  s.tris.clear();
+  for (Face f : m.faces()) {
+    std::array<int, 3> t{};
+    int k = 0;
+    for (Vertex v : CGAL::vertices_around_face(m.halfedge(f), m)) {
+      if (k < 3) t[k] = static_cast<int>(v.idx());
+      ++k;
+    }
+    if (k == 3) s.tris.push_back(t);
+  }
+  s.nbr_begin.assign(n + 1, 0);
+  for (std::size_t k = 0; k < ei.size(); ++k) {
+    ++s.nbr_begin[ei[k] + 1];
+    ++s.nbr_begin[ej[k] + 1];
+  }
+  for (std::size_t i = 0; i < n; ++i) s.nbr_begin[i + 1] += s.nbr_begin[i];
+  s.nbr.assign(s.nbr_begin[n], 0);
+  s.nbr_rest.assign(s.nbr_begin[n], 0.0);
+  s.spacing.assign(n, 0.0);
+  {
+    std::vector<int> fill(s.nbr_begin.begin(), s.nbr_begin.end() - 1);
+    for (std::size_t k = 0; k < ei.size(); ++k) {
+      const double r = g.rest_length(eh[k]);
+      s.nbr_rest[fill[ei[k]]] = r;
+      s.nbr[fill[ei[k]]++] = ej[k];
+      s.nbr_rest[fill[ej[k]]] = r;
+      s.nbr[fill[ej[k]]++] = ei[k];
+      for (int u : {ei[k], ej[k]}) s.spacing[u] = s.spacing[u] > 0 ? std::min(s.spacing[u], r) : r;
+    }
+  }
+  build_long_range(s);
+
+  // Self-collision trees: a leaf per cluster of nearby triangles and of nearby vertices (runs in
+  // Morton order), built once, refitted at each gather.
+  auto cluster_tree = [&](const std::vector<std::pair<std::uint32_t, int>>& sorted, int size,
+                          const std::vector<Box3>& item_box, btDbvt& tree, std::vector<int>& begin,
+                          std::vector<int>& items, std::vector<btDbvtNode*>& leaf_of) {
+    const int count = static_cast<int>(sorted.size()), clusters = (count + size - 1) / size;
+    begin.assign(1, 0);
+    items.clear();
+    std::vector<std::pair<std::uint32_t, int>> keys;
+    std::vector<btDbvtVolume> volumes;
+    for (int c = 0; c < clusters; ++c) {
+      Box3 b;
+      for (int k = c * size; k < std::min(count, (c + 1) * size); ++k) {
+        items.push_back(sorted[k].second);
+        b.extend(item_box[sorted[k].second]);
+      }
+      begin.push_back(static_cast<int>(items.size()));
+      keys.emplace_back(sorted[c * size].first, c);
+      volumes.push_back(btDbvtVolume::FromMM(btVector3(b.min().x(), b.min().y(), b.min().z()),
+                                             btVector3(b.max().x(), b.max().y(), b.max().z())));
+    }
+    leaf_of.assign(clusters, nullptr);
+    build_tree(tree, keys, volumes, leaf_of);
+  };
+  std::vector<Box3> item_box(s.tris.size());
+  keyed.clear();
+  for (std::size_t t = 0; t < s.tris.size(); ++t) {
+    for (int k = 0; k < 3; ++k) item_box[t].extend(to_vec(m.point(vtx(s.tris[t][k]))));
+    keyed.emplace_back(morton(item_box[t].center()), static_cast<int>(t));
+  }
+  std::sort(keyed.begin(), keyed.end());
+  cluster_tree(keyed, SolverArrays::kTriCluster, item_box, s.tri_tree, s.tcl_begin, s.tcl_items, s.tcl_leaf);
+  item_box.assign(n, Box3());
+  for (Vertex v : m.vertices()) item_box[v.idx()].extend(to_vec(m.point(v)));
+  cluster_tree(vertex_keys, SolverArrays::kVertCluster, item_box, s.vert_tree, s.vcl_begin, s.vcl_items, s.vcl_leaf);
+  build_self_exclusions(s);
+
+  s.cand_start.assign(n, 0);
+  s.cand_count.assign(n, 0);
+  s.cand.clear();
+  s.contact_verts.clear();
+  s.self_pairs.clear();
+  s.sleep_ready = false;  // everything awake, but what the garment's sleep record finds as it slept
+  s.built = true;
+}
+
+}  // namespace solver_detail
+
+void Solver::step(Garment& garment, double dt) {
+  if (!std::isfinite(dt) || dt <= 0) {
+    forces_.clear();
+    std::ostringstream msg;
+    msg << "time step dt is " << dt << ": it must be a positive finite number of seconds (e.g. 1/60)";
+    throw InputError(msg.str());
+  }
+  params_.validate();
+  const Material& mat = garment.material();
+  mat.validate();
+  const Mesh& m = garment.mesh();
+  const std::size_t n = garment.vertex_capacity();
+
+  // Check the input state before touching anything.
+  try {
+    check_garment(garment);
+  } catch (const InputError&) {
+    forces_.clear();
+    throw;
+  }
+  for (const auto& f : forces_) {
+    if (f.vertex.idx() >= n || m.is_removed(f.vertex) || !all_finite(f.force)) {
+      forces_.clear();
+      throw InputError("an external force is on a vertex that does not exist or is not finite: "
+                       "apply finite forces to vertices of this garment");
+    }
+  }
+
+  State& s = *state_;
+  const auto started = std::chrono::steady_clock::now();
+  const double shared_before = parallel::shared_seconds();
+  build_if_needed(s, garment);
+
+  // Mirror the mesh into the flat arrays.
+  const bool mass_spring = params_.model == SolverModel::MassSpring;
+  const bool local = params_.local_radius > 0;
+  const double r2 = params_.local_radius * params_.local_radius;
+  // Sleeping blocks that anything has disturbed since the last step: an edit of a vertex (its
+  // position, velocity or pin) or of a rest length, a hand, a force, an open seam.
+  const bool sleeping = params_.sleep_after > 0 && s.sleep_ready;
+  s.im.resize(n, 0.0);
+  // In parallel pieces, each marking the blocks it finds disturbed in its own flags.
+  std::vector<unsigned char> disturbed(s.blocks, 0);
+  const int pieces = parallel::piece_count(static_cast<int>(n), 4096);
+  std::vector<std::array<unsigned char, SolverArrays::kMaxBlocks>> piece_disturbed(pieces);
+  for (auto& d : piece_disturbed) d.fill(0);
+  parallel::for_each(pieces, [&](int piece) {
+    unsigned char* dist = piece_disturbed[piece].data();
+    const int i1 = parallel::piece_begin(static_cast<int>(n), piece + 1, pieces);
+    for (int i = parallel::piece_begin(static_cast<int>(n), piece, pieces); i < i1; ++i) {
+      if (!s.alive[i]) {
+        s.moving[i] = 0;
+        s.w[i] = 0;
+        continue;
+      }
+      const Vertex v = vtx(i);
+      const Vec3 x = garment.position(v);
+      const double im = garment.inverse_mass(v);
+      // An edit since the last step: of any vertex's position or pin (the step wrote every vertex
+      // it moved exactly; a block calm but awake when a pin is let go must not fall asleep with the
+      // cloth hanging in the air), or of a sleeping vertex's velocity.
+      if (sleeping && (x != s.x[i] || im != s.im[i] || (s.asleep[s.block[i]] && garment.velocity(v) != Vec3::Zero())))
+        dist[s.block[i]] = 1;
+      s.x[i] = x;
+      s.v[i] = garment.velocity(v);
+      s.fext[i].setZero();
+      s.im[i] = im;
+      bool in = im > 0;
+      if (local && (s.x[i] - params_.local_center).squaredNorm() > r2) in = false;
+      s.moving[i] = in;
+      s.w[i] = in ? (mass_spring ? 1.0 : im) : 0.0;
+    }
+    const int ne = static_cast<int>(s.e_handle.size());
+    const int k1 = parallel::piece_begin(ne, piece + 1, pieces);
+    for (int k = parallel::piece_begin(ne, piece, pieces); k < k1; ++k) {
+      const double rest = garment.rest_length(s.e_handle[k]);
+      // (After a rebuild, which leaves e_rest zero, all differ: nothing sleeps yet to disturb.)
+      if (sleeping && rest != s.e_rest[k]) dist[s.block[s.e_i[k]]] = dist[s.block[s.e_j[k]]] = 1;
+      s.e_rest[k] = rest;
+    }
+  });
+  for (const auto& d : piece_disturbed)
+    for (int b = 0; b < s.blocks; ++b) disturbed[b] |= d[b];
+  for (const auto& f : forces_) {
+    s.fext[f.vertex.idx()] += f.force;
+    disturbed[s.block[f.vertex.idx()]] = 1;
+  }
+  forces_.clear();
+  // Hands on the cloth (dropping those whose vertex is gone) and tacks.
+  attachments_.erase(std::remove_if(attachments_.begin(), attachments_.end(),
+                                    [&](const Attachment& a) { return a.vertex.idx() >= n || !s.alive[a.vertex.idx()]; }),
+                     attachments_.end());
+  s.attach.clear();
+  for (const auto& a : attachments_)
+    s.attach.push_back({static_cast<int>(a.vertex.idx()), a.target, a.from, a.stiffness, a.firm});
+  s.tacks.clear();
+  for (const auto& [a, b] : garment.tacks)
+    if (a.idx() < n && b.idx() < n && s.alive[a.idx()] && s.alive[b.idx()])
+      s.tacks.push_back({static_cast<int>(a.idx()), static_cast<int>(b.idx())});
+  for (const auto& a : s.attach) disturbed[s.block[a.i]] = 1;
+  for (const auto& [a, b] : s.tacks)
+    if ((s.x[a] - s.x[b]).squaredNorm() > params_.sleep_distance * params_.sleep_distance)
+      disturbed[s.block[a]] = disturbed[s.block[b]] = 1;
+  solver_detail::sleep_before_step(s, params_, mat, disturbed, garment.sleep_record().get());
+
+  const BodyCollider* body = (params_.body_collision && collider_) ? collider_.get() : nullptr;
+  s.report = StepReport{};
+  // The report's times (the rest of the step's, below, once it is written back).
+  auto finish_times = [&] {
+    s.report.ms.total = 1000 * std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    s.report.ms.shared = 1000 * (parallel::shared_seconds() - shared_before);
+  };
+  if (mass_spring)
+    solver_detail::step_mass_spring(s, params_, mat, body, dt);
+  else
+    solver_detail::step_xpbd(s, params_, mat, body, dt);
+
+  // A diverged state is never written back: the step is undone (the garment keeps the state it
+  // had, and the arrays, whose collision margins the step left non-finite, are built again from it).
+  const int diverged = first_where(static_cast<int>(n), [&](int i) {
+    return s.moving[i] && (!all_finite(s.x[i]) || !all_finite(s.v[i]));
+  });
+  if (diverged >= 0) {
+    s.built = false;
+    finish_times();
+    std::ostringstream msg;
+    msg << "the simulation of garment '" << garment.name << "' diverged at vertex " << diverged
+        << " (its position or velocity would have become infinite or NaN): the step was undone and the garment is as "
+           "it was; lower the forces or the hands' stiffness, ";
+    msg << (mass_spring ? "lower spring_k or spring_damping, " : "") << "or raise substeps (now " << params_.substeps << ")";
+    throw SimulationError(msg.str());
+  }
+  const bool fell_asleep = solver_detail::sleep_after_step(s, params_, dt);
+  parallel::for_range(static_cast<int>(n), 4096, [&](int b, int e) {
+    for (int i = b; i < e; ++i) {
+      if (!s.alive[i]) continue;
+      const Vertex v = vtx(i);
+      if (s.moving[i]) {
+        garment.set_position(v, s.x[i]);
+        garment.velocity(v) = s.v[i];
+      } else if (local) {
+        // Held still by the local region this step: it has no motion to resume with when the region
+        // moves on or the tool lets go.
+        garment.velocity(v) = Vec3::Zero();
+      }
+    }
+  });
+  if (fell_asleep) garment.set_sleep_record(solver_detail::sleep_record(s));
+  for (auto& a : attachments_) a.from = a.target;
+  finish_times();
+}
+
+StepReport Solver::last_step() const { return state_->report; }
+
+void Solver::prepare(const Garment& garment) {
+  garment.material().validate();
+  check_garment(garment);
+  build_if_needed(*state_, garment);
+}
+
+std::vector<Vec3> Solver::spring_forces(const Garment& garment) const {
+  const Mesh& m = garment.mesh();
+  std::vector<Vec3> f(garment.vertex_capacity(), Vec3::Zero());
+  const double k = params_.spring_k;
+  for (Edge e : m.edges()) {
+    const Halfedge h = m.halfedge(e);
+    const Vertex i = m.source(h), j = m.target(h);
+    const Vec3 dij = garment.position(j) - garment.position(i);
+    const double lc = dij.norm();  // l'_ij, the current length
+    if (!(lc > 0)) continue;
+    const Vec3 g = k * (1.0 - garment.rest_length(e) / lc) * (dij / lc);  // eq. 3: g_ij
+    f[i.idx()] += g;
+    f[j.idx()] -= g;  // g_ji = -g_ij
+  }
+  return f;
+}
+
+ClothMeasures Solver::measure(const Garment& garment) const {
+  ClothMeasures r;
+  const Mesh& m = garment.mesh();
+  r.vertices = m.number_of_vertices();
+  double sum = 0;
+  std::size_t ne = 0;
+  for (Edge e : m.edges()) {
+    const double rest = garment.rest_length(e);
+    if (!(rest > 0)) continue;
+    const double strain = std::abs(garment.length(e) / rest - 1.0);
+    r.max_strain = std::max(r.max_strain, strain);
+    sum += strain;
+    ++ne;
+  }
+  r.mean_strain = ne ? sum / ne : 0.0;
+  r.kinetic_energy = garment.kinetic_energy();
+  if (state_->garment == &garment && state_->sleep_ready) r.sleeping = state_->sleeping;
+  if (collider_) {
+    const double th = garment.material().thickness;
+    const double radius = std::max(0.05, 10 * th);
+    for (Vertex v : m.vertices()) {
+      const BodyContact c = collider_->closest(garment.position(v), radius);
+      if (!c.hit) continue;
+      // Inside by the body's volume, not by the side of the closest face, which a game model's
+      // fins of no thickness and inverted faces get wrong (see BodyCollider::inside).
+      if (collider_->inside(garment.position(v))) r.max_penetration = std::max(r.max_penetration, std::abs(c.distance));
+      if (c.distance < 1.5 * th) ++r.contacts;
+    }
+  }
+  return r;
+}
+
+}  // namespace kiji

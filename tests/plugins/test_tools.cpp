@@ -1,0 +1,589 @@
+// The five tools of the paper and pin, loaded as plugins from the build tree and driven by recorded
+// strokes through a session, checked as a user would check them.
+#include "kiji/error.h"
+#include "kiji/haptics.h"
+#include "kiji/io.h"
+#include "kiji/pattern.h"
+#include "kiji/session.h"
+#include "kiji/topology.h"
+
+#include "support/test_strokes.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <set>
+#include <algorithm>
+
+using namespace kiji;
+
+namespace {
+
+using test::line;
+using test::plugins;
+
+// The vertex of a garment nearest a point.
+Vertex nearest(const Garment& g, const Vec3& p) {
+  Vertex best;
+  double d = 1e300;
+  for (Vertex v : g.mesh().vertices())
+    if ((g.position(v) - p).squaredNorm() < d) d = (g.position(v) - p).squaredNorm(), best = v;
+  return best;
+}
+
+// A flat rectangle lying in the z = 0 plane, as made by the pattern maker.
+std::unique_ptr<Session> flat_session(double w, double h, int nx, int ny, const Material& m = {}) {
+  auto s = std::make_unique<Session>(plugins());
+  s->add_garment(make_rectangle(w, h, nx, ny, m));
+  SolverParams p;
+  p.gravity = Vec3::Zero();
+  s->set_solver_params(p);
+  return s;
+}
+
+// Everything undo must restore: topology, positions, pins, texture.
+struct State {
+  std::vector<std::array<std::uint32_t, 3>> faces;
+  std::vector<Vec3> positions;
+  std::vector<double> inverse_masses;
+  std::vector<std::uint8_t> texture;
+  std::size_t tacks = 0;
+};
+
+State state_of(const Garment& g) {
+  State st;
+  for (Face f : g.mesh().faces()) {
+    std::array<std::uint32_t, 3> c{};
+    int k = 0;
+    for (Vertex v : CGAL::vertices_around_face(g.mesh().halfedge(f), g.mesh())) c[k++] = v.idx();
+    st.faces.push_back(c);
+  }
+  for (Vertex v : g.mesh().vertices()) {
+    st.positions.push_back(g.position(v));
+    st.inverse_masses.push_back(g.inverse_mass(v));
+  }
+  st.texture = g.texture().rgba;
+  st.tacks = g.tacks.size();
+  return st;
+}
+
+void expect_same(const State& a, const State& b) {
+  EXPECT_EQ(a.faces, b.faces);
+  ASSERT_EQ(a.positions.size(), b.positions.size());
+  for (std::size_t i = 0; i < a.positions.size(); ++i) EXPECT_EQ(a.positions[i], b.positions[i]);
+  EXPECT_EQ(a.inverse_masses, b.inverse_masses);
+  EXPECT_TRUE(a.texture == b.texture);
+  EXPECT_EQ(a.tacks, b.tacks);
+}
+
+// Runs a stroke and checks that undo brings back exactly the garment before it, and redo the one after.
+void run_and_check_undo(Session& s, const std::string& tool, const ParamSet& params, const Stroke& stroke) {
+  const State before = state_of(s.garment(0));
+  s.run(tool, params, stroke);
+  const State after = state_of(s.garment(0));
+  ASSERT_TRUE(s.undo());
+  expect_same(state_of(s.garment(0)), before);
+  ASSERT_TRUE(s.redo());
+  expect_same(state_of(s.garment(0)), after);
+}
+
+}  // namespace
+
+TEST(Tools, AllSixAreFoundAsPlugins) {
+  auto r = plugins();
+  for (const char* id : {"cut", "paint", "pin", "pinch", "sew", "tear"}) {
+    ASSERT_TRUE(r->has(id)) << id;
+    EXPECT_NE(r->origin(id).find("kiji_" + std::string(id)), std::string::npos);
+    for (const auto& p : r->info(id).parameters) EXPECT_FALSE(p.help.empty()) << id << "." << p.name;
+  }
+}
+
+TEST(Pinch, TheGrabbedVertexFollowsAndTheFeedbackIsTheSpringForce) {
+  Session s(plugins());
+  Garment g = make_rectangle(0.5, 0.5, 21, 21);
+  // Hang it: the top row pinned.
+  for (Vertex v : g.mesh().vertices())
+    if (g.position(v).y() > 0.499) g.set_pinned(v, true);
+  s.add_garment(std::move(g));
+  const State before = state_of(s.garment(0));
+  const Vec3 start = s.garment(0).position(nearest(s.garment(0), Vec3(0.25, 0.0, 0)));
+  const double k = 2000;
+  ParamSet p = s.params_for("pinch", {{"stiffness", k}});
+  const Vec3 goal = start + Vec3(0, 0.05, 0.15);
+  Stroke stroke = line(start, goal, 60);  // a second's pull
+  // Then hold for another second.
+  for (int i = 1; i <= 60; ++i) {
+    ToolEvent e = stroke.back();
+    e.phase = Phase::Move;
+    e.time = 1.0 + i / 60.0;
+    stroke.insert(stroke.end() - 1, e);
+  }
+  stroke.back().time = 2.0 + 1.0 / 60;
+  const Vertex grabbed = nearest(s.garment(0), start);
+  for (const ToolEvent& e : stroke) {
+    const Feedback f = s.apply("pinch", e, &p);
+    if (e.phase == Phase::End) break;
+    const Vec3 x = s.garment(0).position(grabbed);
+    EXPECT_LT((f.force - k * (x - e.position)).norm(), 1e-9) << "feedback is k (vertex - pointer)";
+  }
+  EXPECT_LT((s.garment(0).position(grabbed) - goal).norm(), 0.01) << "the vertex followed the pointer";
+  // Undo puts the cloth back exactly as it hung before the pull.
+  const State after = state_of(s.garment(0));
+  ASSERT_TRUE(s.undo());
+  expect_same(state_of(s.garment(0)), before);
+  ASSERT_TRUE(s.redo());
+  expect_same(state_of(s.garment(0)), after);
+}
+
+TEST(Pinch, TakesThePatchUnderTheFingertipAndFeelsAllOfIt) {
+  // Vertices 8.3 mm apart: within the 2 cm grab radius of a vertex lie it, 4 at 8.3 mm, 4 at
+  // 11.8 mm, 4 at 16.7 mm and 8 at 18.6 mm.
+  auto owner = flat_session(1.0, 1.0, 121, 121);
+  Session& s = *owner;
+  const Vec3 p0(0.5, 0.5, 0);
+  std::vector<std::pair<Vertex, Vec3>> patch;  // the vertices within 2 cm, and where they were
+  for (Vertex v : s.garment(0).mesh().vertices())
+    if ((s.garment(0).position(v) - p0).norm() <= 0.02) patch.push_back({v, s.garment(0).position(v)});
+  ASSERT_EQ(patch.size(), 21u);
+  const double k = 500;
+  ParamSet p = s.params_for("pinch", {{"stiffness", k}});
+  const Stroke stroke = line(p0, p0 + Vec3(0, 0, 0.05), 20);
+  Feedback f;
+  for (const ToolEvent& e : stroke) {
+    if (e.phase == Phase::End) break;
+    f = s.apply("pinch", e, &p);
+    EXPECT_EQ(s.solver(0).attachment_count(), 21u) << "one spring for each vertex of the patch";
+  }
+  // The force is the sum of the 21 springs of k / 21, each from where its vertex is to where the
+  // hand holds it (its place when taken, carried by the pointer's motion); the haptic thread's
+  // force from a snapshot of the cloth is the same.
+  const Vec3 pointer = stroke[stroke.size() - 2].position;
+  Vec3 expected = Vec3::Zero();
+  for (const auto& [v, was] : patch) {
+    const Vec3 x = s.garment(0).position(v);
+    expected += (k / 21) * (x - (was - p0) - pointer);
+    EXPECT_GT(x.z(), 0.04) << "vertex " << v.idx() << " of the patch came up with the hand";
+  }
+  EXPECT_LT((f.force - expected).norm(), 1e-9) << f.force.transpose() << " vs " << expected.transpose();
+  const Feedback felt = s.tool("pinch").haptic_force(take_snapshot(s, 0, pointer, 0.1), stroke[stroke.size() - 2]);
+  EXPECT_LT((felt.force - expected).norm(), 1e-9);
+  s.apply("pinch", stroke.back(), &p);
+  EXPECT_EQ(s.solver(0).attachment_count(), 0u) << "released";
+
+  // A grab radius of 0 takes the nearest vertex alone, as the paper did; so does the default
+  // radius on a mesh coarser than it (vertices 5 cm apart).
+  ParamSet one = s.params_for("pinch", {{"grab_radius", 0.0}});
+  s.apply("pinch", stroke[0], &one);
+  EXPECT_EQ(s.solver(0).attachment_count(), 1u);
+  s.apply("pinch", stroke.back(), &one);
+  auto coarse = flat_session(1.0, 1.0, 21, 21);
+  const ParamSet defaults = coarse->params_for("pinch");
+  coarse->apply("pinch", stroke[0], &defaults);
+  EXPECT_EQ(coarse->solver(0).attachment_count(), 1u);
+  coarse->apply("pinch", stroke.back());
+}
+
+TEST(Pinch, TheHandHoldsTheClothsWeightAndFeelsIt) {
+  // A 0.5 m cloth of 2,601 vertices hanging from the pinch at the middle of its top edge, the pen
+  // held still for 2 s. Whether the hand takes the patch under the fingertip or one vertex, as the
+  // paper did, the pen feels the cloth's weight and the cloth hangs weight / k below it. A hand that
+  // moved only the grabbed vertices' own mass let this cloth hang 3 and 28 times further below the
+  // pen, and fed back as many times its weight.
+  for (const double radius : {0.02, 0.0}) {
+    SCOPED_TRACE("grab radius " + std::to_string(radius));
+    Material m;
+    m.damping = 8.0;  // to settle within the test
+    Session s(plugins());
+    s.add_garment(make_rectangle(0.5, 0.5, 51, 51, m));
+    const Garment& g = s.garment(0);
+    double mass = 0;
+    for (Vertex v : g.mesh().vertices()) mass += 1.0 / g.inverse_mass(v);
+    const Vec3 gravity = s.solver(0).params().gravity;
+    const Vec3 weight = mass * gravity;
+    const Vertex held = nearest(g, Vec3(0.25, 0.5, 0));  // the vertex under the pen
+    const Vec3 top = g.position(held);
+    const double k = 50;
+    ParamSet p = s.params_for("pinch", {{"stiffness", k}, {"grab_radius", radius}});
+    const Stroke hold = line(top, top, 121);
+    Feedback f;
+    for (std::size_t i = 0; i + 1 < hold.size(); ++i) f = s.apply("pinch", hold[i], &p);
+    EXPECT_LT((f.force - weight).norm(), 0.1 * weight.norm())
+        << "felt " << f.force.transpose() << " N, the cloth weighs " << weight.transpose() << " N";
+    const Feedback felt = s.tool("pinch").haptic_force(take_snapshot(s, 0, top, 0.5), hold[hold.size() - 2]);
+    EXPECT_LT((felt.force - f.force).norm(), 1e-9) << "the haptic thread feels the same";
+    const double below = (g.position(held) - top).dot(gravity.normalized());
+    EXPECT_LT(std::abs(below / (weight.norm() / k) - 1), 0.15)
+        << "the grabbed cloth hangs " << below << " m below the pen; weight / k is " << weight.norm() / k << " m";
+    s.apply("pinch", hold.back(), &p);
+  }
+}
+
+TEST(Pinch, WithALocalRadiusNothingOutsideItMoves) {
+  auto owner = flat_session(1.0, 1.0, 21, 21);
+  Session& s = *owner;
+  const State before = state_of(s.garment(0));
+  const Vec3 start(0.5, 0.5, 0);
+  ParamSet p = s.params_for("pinch", {{"stiffness", 500.0}, {"local_radius", 0.2}});
+  s.run("pinch", p, line(start, start + Vec3(0, 0, 0.1), 30));
+  const Garment& g = s.garment(0);
+  std::size_t moved_inside = 0, index = 0;
+  for (Vertex v : g.mesh().vertices()) {
+    const Vec3 was = before.positions[index++];
+    const double r = (was - start).norm();
+    if (r > 0.2 + 0.1 + 1e-9) EXPECT_EQ(g.position(v), was) << "vertex " << v.idx() << " outside moved";
+    if (r < 0.1 && g.position(v) != was) ++moved_inside;
+  }
+  EXPECT_GT(moved_inside, 5u);
+}
+
+TEST(Pinch, WholeModeCarriesTheGarment) {
+  auto owner = flat_session(1.0, 1.0, 11, 11);
+  Session& s = *owner;
+  s.set_simulating(false);
+  const State before = state_of(s.garment(0));
+  ParamSet p = s.params_for("pinch", {{"mode", std::string("whole")}});
+  run_and_check_undo(s, "pinch", p, line(Vec3(0.5, 0.5, 0), Vec3(0.7, 0.5, 0.3), 10));
+  std::size_t i = 0;
+  for (Vertex v : s.garment(0).mesh().vertices())
+    EXPECT_LT((s.garment(0).position(v) - (before.positions[i++] + Vec3(0.2, 0, 0.3))).norm(), 1e-12);
+}
+
+namespace {
+// Hangs a cloth of the material by its top edge and pulls its bottom middle down 4 cm.
+const Vec3 kPullStart(0.2, 0.0, 0);
+
+Garment pulled(const Material& m, const std::string& mode) {
+  Session s(plugins());
+  Garment g = make_rectangle(0.4, 0.4, 21, 21, m);
+  for (Vertex v : g.mesh().vertices())
+    if (g.position(v).y() > 0.399) g.set_pinned(v, true);
+  s.add_garment(std::move(g));
+  ParamSet p = s.params_for("tear", {{"mode", mode}});
+  const State before = state_of(s.garment(0));
+  const Stroke stroke = line(kPullStart, kPullStart + Vec3(0, -0.04, 0.0), 60);
+  s.run("tear", p, stroke);
+  const Garment torn = s.garment(0);
+  // Undo restores the whole cloth exactly; redo the torn one.
+  EXPECT_TRUE(s.undo());
+  expect_same(state_of(s.garment(0)), before);
+  EXPECT_TRUE(s.redo());
+  expect_same(state_of(s.garment(0)), state_of(torn));
+  return torn;
+}
+
+// The largest stretch (length over rest length) of the garment's edges.
+double largest_stretch(const Garment& g) {
+  double most = 0;
+  for (Edge e : g.mesh().edges()) most = std::max(most, g.length(e) / g.rest_length(e));
+  return most;
+}
+
+// The faces of `before` that `after` no longer has (vertex indices are stable across tears), by
+// their corners' positions in `before`.
+std::vector<Vec3> centres_of_lost_faces(const State& before, const Garment& after) {
+  std::set<std::array<std::uint32_t, 3>> kept;
+  for (const auto& f : state_of(after).faces) {
+    auto k = f;
+    std::sort(k.begin(), k.end());
+    kept.insert(k);
+  }
+  std::vector<Vec3> lost;
+  for (const auto& f : before.faces) {
+    auto k = f;
+    std::sort(k.begin(), k.end());
+    if (!kept.count(k)) lost.push_back((before.positions[f[0]] + before.positions[f[1]] + before.positions[f[2]]) / 3);
+  }
+  return lost;
+}
+}  // namespace
+
+TEST(Tear, AStrongPullTearsFragileClothWhereItPullsAndNotRubber) {
+  const State rest = state_of(make_rectangle(0.4, 0.4, 21, 21));
+  const Garment rubber = pulled(Material::rubber(), "remove");
+  EXPECT_TRUE(rubber.is_valid());
+  EXPECT_EQ(rubber.mesh().number_of_faces(), 800u) << "rubber stretches and holds";
+  EXPECT_GT(largest_stretch(rubber), Material::tissue().tear_ratio)
+      << "the same pull stretches rubber past what tissue bears";
+  EXPECT_LT(largest_stretch(rubber), Material::rubber().tear_ratio);
+
+  const Garment tissue = pulled(Material::tissue(), "remove");
+  EXPECT_TRUE(tissue.is_valid());
+  const std::vector<Vec3> lost = centres_of_lost_faces(rest, tissue);
+  ASSERT_FALSE(lost.empty()) << "tissue tears: edges and their faces go";
+  EXPECT_LT(tissue.mesh().number_of_faces(), 800u);
+  // Where the hand pulls, and nowhere else: every lost face is near the grabbed corner of the cloth.
+  for (const Vec3& c : lost) EXPECT_LT((c - kPullStart).norm(), 0.08) << c.transpose();
+  // And the tear leaves no edge past its threshold: every edge stretched past it broke.
+  for (Edge e : tissue.mesh().edges()) EXPECT_LE(tissue.length(e), tissue.tear_threshold(e));
+}
+
+TEST(Tear, SplitModeOpensTheClothWhereItPullsAndLosesNoFace) {
+  const Garment tissue = pulled(Material::tissue(), "split");
+  EXPECT_TRUE(tissue.is_valid());
+  EXPECT_EQ(tissue.mesh().number_of_faces(), 800u);
+  ASSERT_GT(tissue.mesh().number_of_vertices(), 441u) << "the tear opened the cloth";
+  // The vertices the opening added are where the hand pulls, and every edge still past its
+  // threshold is on the opening's border (opened, no longer holding the cloth together).
+  for (Vertex v : tissue.mesh().vertices())
+    if (v.idx() >= 441) EXPECT_LT((tissue.position(v) - kPullStart).norm(), 0.1) << v.idx();
+  for (Edge e : tissue.mesh().edges())
+    if (tissue.length(e) > tissue.tear_threshold(e)) EXPECT_TRUE(tissue.mesh().is_border(e));
+}
+
+TEST(Tear, EdgesTearExactlyWhereTheyAreStretchedPastTheirThreshold) {
+  // A still cloth with two vertices pushed diagonally by 0.9 of the spacing: the edges behind each
+  // stretch past tissue's threshold (1.1 of rest). Around the second, every stretched edge is given
+  // a threshold 2 % above its length (a stronger thread): there nothing may tear.
+  auto owner = flat_session(0.4, 0.4, 21, 21, Material::tissue());
+  Session& s = *owner;
+  s.set_simulating(false);
+  Garment& g = s.garment(0);
+  const Vertex weak(21 * 10 + 4), strong(21 * 10 + 16);  // each with eight neighbours
+  for (Vertex v : {weak, strong}) g.set_position(v, g.position(v) + Vec3(0.9 * 0.02, 0.9 * 0.02, 0));
+  using Key = std::pair<std::uint32_t, std::uint32_t>;
+  auto key_of = [&](Edge e) {
+    const std::uint32_t a = g.mesh().source(g.mesh().halfedge(e)).idx(), b = g.mesh().target(g.mesh().halfedge(e)).idx();
+    return Key(std::min(a, b), std::max(a, b));
+  };
+  std::set<Key> over, held;
+  std::set<Face> doomed;
+  for (Edge e : g.mesh().edges()) {
+    if (g.length(e) <= g.tear_threshold(e)) continue;
+    const Key k = key_of(e);
+    if (k.first == strong.idx() || k.second == strong.idx()) {
+      g.set_tear_threshold(e, g.length(e) * 1.02);
+      held.insert(k);
+      continue;
+    }
+    over.insert(k);
+    for (Halfedge h : {g.mesh().halfedge(e), g.mesh().opposite(g.mesh().halfedge(e))})
+      if (!g.mesh().is_border(h)) doomed.insert(g.mesh().face(h));
+  }
+  ASSERT_EQ(over.size(), 5u) << "five of the weak vertex's eight edges are stretched past 1.1";
+  ASSERT_EQ(held.size(), 5u);
+  const State before = state_of(g);
+
+  // The pointer far from both: where the pointer is does not choose what tears.
+  s.run("tear", s.params_for("tear"), line(Vec3(0.05, 0.05, 0), Vec3(0.05, 0.05, 0), 1));
+  const Garment& torn = s.garment(0);
+  EXPECT_TRUE(torn.is_valid());
+  for (const auto& [a, b] : over) EXPECT_FALSE(CGAL::halfedge(Vertex(a), Vertex(b), torn.mesh()).second) << a << "-" << b;
+  for (const auto& [a, b] : held) EXPECT_TRUE(CGAL::halfedge(Vertex(a), Vertex(b), torn.mesh()).second) << a << "-" << b;
+  // Exactly the faces of the broken edges went, and every face around the strong vertex stayed.
+  EXPECT_EQ(torn.mesh().number_of_faces(), before.faces.size() - doomed.size());
+  EXPECT_EQ(CGAL::degree(strong, torn.mesh()), 8u);
+  for (const Vec3& c : centres_of_lost_faces(before, torn))
+    EXPECT_LT((c - before.positions[weak.idx()]).norm(), 0.04) << "a face lost away from the weak vertex, at " << c.transpose();
+}
+
+TEST(Cut, AStrokeAcrossARectangleMakesTwoPiecesKeepingEveryFace) {
+  auto owner = flat_session(1.0, 1.0, 21, 21);
+  Session& s = *owner;
+  s.set_simulating(false);
+  const auto faces = s.garment(0).mesh().number_of_faces();
+  ParamSet p = s.params_for("cut");
+  // From off the cloth on the left to off the cloth on the right, just above the plane.
+  run_and_check_undo(s, "cut", p, line(Vec3(-0.1, 0.52, 0.01), Vec3(1.1, 0.52, 0.01), 40));
+  const Garment& g = s.garment(0);
+  EXPECT_TRUE(g.is_valid());
+  EXPECT_EQ(g.count_pieces(), 2u);
+  EXPECT_EQ(g.mesh().number_of_faces(), faces);
+}
+
+TEST(Cut, VertexModeSplitsThePickedVertexAsThePaperDoes) {
+  auto owner = flat_session(1.0, 1.0, 11, 11);
+  Session& s = *owner;
+  s.set_simulating(false);
+  ParamSet p = s.params_for("cut", {{"mode", std::string("vertex")}});
+  run_and_check_undo(s, "cut", p, line(Vec3(0.5, 0.0, 0.0), Vec3(0.5, 0.1, 0.0), 3));
+  EXPECT_TRUE(s.garment(0).is_valid());
+  EXPECT_EQ(s.garment(0).mesh().number_of_vertices(), 122u);
+  EXPECT_EQ(border_loops(s.garment(0))[0].size(), 42u) << "the border runs into the cut";
+}
+
+TEST(Sew, ARectangleSewnEdgeToEdgeBecomesATube) {
+  auto owner = flat_session(1.0, 0.5, 11, 6);
+  Session& s = *owner;
+  s.set_simulating(false);
+  const State before = state_of(s.garment(0));
+  ParamSet p = s.params_for("sew", {{"distance", 0.02}});
+  // The paper's sewing: lift each vertex of the left border over the cloth and bring it down onto
+  // its partner on the right.
+  for (int j = 0; j < 6; ++j) {
+    const double y = 0.1 * j;
+    Stroke up = line(Vec3(0.0, y, 0.0), Vec3(0.5, y, 0.4), 10, s.time());
+    Stroke down = line(Vec3(0.5, y, 0.4), Vec3(1.0, y, 0.0), 10, up.back().time);
+    up.pop_back();
+    down.front().phase = Phase::Move;
+    up.insert(up.end(), down.begin(), down.end());
+    s.run("sew", p, up);
+  }
+  const Garment& g = s.garment(0);
+  EXPECT_TRUE(g.is_valid());
+  EXPECT_EQ(g.count_pieces(), 1u);
+  EXPECT_EQ(border_loops(g).size(), 2u) << "a tube has two border loops";
+  EXPECT_TRUE(g.tacks.empty()) << "every tack closed into the seam";
+  // Undoing the six strokes gives back the flat rectangle exactly.
+  for (int j = 0; j < 6; ++j) ASSERT_TRUE(s.undo());
+  EXPECT_EQ(s.journal().cursor(), 1u) << "only the garment's arrival is left to undo";
+  expect_same(state_of(s.garment(0)), before);
+}
+
+TEST(Sew, TwoPanelsSewnAlongASeamHaveNoBorderAlongIt) {
+  Session s(plugins());
+  Garment a = make_rectangle(0.5, 1.0, 6, 11);
+  Garment b = make_rectangle(0.5, 1.0, 6, 11);
+  b.transform(Eigen::Affine3d(Eigen::Translation3d(0.6, 0, 0)));
+  append_garment(a, b);
+  s.add_garment(std::move(a));
+  s.set_simulating(false);
+  // Trace the right border of the first panel with the primary button, then the left border of
+  // the second with the secondary.
+  Stroke stroke = line(Vec3(0.5, 0.0, 0.005), Vec3(0.5, 1.0, 0.005), 10);
+  Stroke second = line(Vec3(0.6, 0.0, 0.005), Vec3(0.6, 1.0, 0.005), 10, stroke.back().time, 1.0 / 60,
+                       kButtonSecondary);
+  stroke.back().phase = Phase::Move;
+  second.front().phase = Phase::Move;
+  stroke.insert(stroke.end(), second.begin(), second.end());
+  run_and_check_undo(s, "sew", s.params_for("sew", {{"mode", std::string("seam")}}), stroke);
+  const Garment& g = s.garment(0);
+  EXPECT_TRUE(g.is_valid());
+  EXPECT_EQ(g.count_pieces(), 1u);
+  EXPECT_EQ(border_loops(g).size(), 1u);
+  for (Vertex v : g.mesh().vertices()) {
+    const Vec3 p = g.position(v);
+    if (p.y() > 0.05 && p.y() < 0.95 && p.x() > 0.45 && p.x() < 0.65) EXPECT_FALSE(g.mesh().is_border(v));
+  }
+}
+
+TEST(Paint, TexelsUnderTheStrokeFollowTheClothAndAreExported) {
+  auto owner = flat_session(1.0, 1.0, 21, 21);
+  Session& s = *owner;
+  s.set_simulating(false);
+  ParamSet p = s.params_for("paint", {{"color", Vec3(0, 0, 1)}, {"radius", 0.02}, {"resolution", 256LL}});
+  // A horizontal line at y = 0.3 from x = 0.2 to 0.8, the pen just above the cloth.
+  run_and_check_undo(s, "paint", p, line(Vec3(0.2, 0.3, 0.002), Vec3(0.8, 0.3, 0.002), 30));
+  Garment& g = s.garment(0);
+  const Texture& t = g.texture();
+  ASSERT_EQ(t.width, 256);
+  auto texel_at = [&](double u, double v) { return t.texel(int(u * t.width), int(v * t.height)); };
+  // uv = pattern metres / 1 m: painted along v = 0.3 for u in [0.2, 0.8], not elsewhere.
+  for (double u : {0.25, 0.5, 0.75}) {
+    EXPECT_EQ(texel_at(u, 0.3)[2], 255);
+    EXPECT_EQ(texel_at(u, 0.3)[0], 0);
+  }
+  EXPECT_NE(texel_at(0.5, 0.6)[2], 255);
+  EXPECT_NE(texel_at(0.9, 0.3)[2], 255);
+  // Move the cloth: the painted place goes with it. Pick where the vertex under the stroke went.
+  const Vertex under = nearest(g, Vec3(0.5, 0.3, 0));
+  g.transform(Eigen::Affine3d(Eigen::Translation3d(0.3, -0.2, 0.5) * Eigen::AngleAxisd(0.7, Vec3::UnitY())));
+  const SurfaceHit hit = s.pick(g.position(under) + Vec3(0, 0, 0.001));
+  ASSERT_TRUE(hit.hit);
+  EXPECT_EQ(texel_at(hit.uv.x(), hit.uv.y())[2], 255);
+  // The exported file carries the painted texture.
+  const std::string path = std::string(KIJI_TEST_TMP) + "/tools_painted.glb";
+  export_garment(g, path);
+  const Garment back = import_garment(path);
+  ASSERT_EQ(back.texture().width, t.width);
+  EXPECT_TRUE(back.texture().rgba == t.rgba);
+  // And so does OBJ, with the PNG beside it.
+  const std::string obj = std::string(KIJI_TEST_TMP) + "/tools_painted.obj";
+  export_garment(g, obj);
+  const Garment back_obj = import_garment(obj);
+  ASSERT_EQ(back_obj.texture().width, t.width);
+  EXPECT_TRUE(back_obj.texture().rgba == t.rgba);
+}
+
+TEST(Paint, TouchingTheClothPushesBackAlongItsNormal) {
+  auto owner = flat_session(1.0, 1.0, 11, 11);
+  Session& s = *owner;
+  s.set_simulating(false);
+  ParamSet p = s.params_for("paint", {{"touch_distance", 0.01}, {"stiffness", 100.0}});
+  ToolEvent e;
+  e.phase = Phase::Begin;
+  e.position = Vec3(0.5, 0.5, 0.004);
+  const Feedback f = s.apply("paint", e, &p);
+  EXPECT_NEAR(f.force.z(), 100.0 * (0.01 - 0.004), 1e-9);
+  EXPECT_NEAR(f.force.head<2>().norm(), 0.0, 1e-12);
+  e.phase = Phase::End;
+  s.apply("paint", e);
+}
+
+TEST(Pin, PinsAndUnpinsTheClothUnderTheBrush) {
+  auto owner = flat_session(1.0, 1.0, 21, 21);
+  Session& s = *owner;
+  s.set_simulating(false);
+  run_and_check_undo(s, "pin", s.params_for("pin", {{"radius", 0.03}}), line(Vec3(0.0, 1.0, 0.01), Vec3(1.0, 1.0, 0.01), 20));
+  Garment& g = s.garment(0);
+  std::size_t pinned = 0;
+  for (Vertex v : g.mesh().vertices()) {
+    const bool top = g.position(v).y() > 0.95;
+    EXPECT_EQ(g.pinned(v), top) << g.position(v).transpose();
+    pinned += g.pinned(v);
+  }
+  EXPECT_EQ(pinned, 21u);
+  // Pinned, the top holds under gravity; unpinned, the whole cloth falls.
+  s.set_simulating(true);
+  s.set_solver_params(SolverParams{});
+  const Vec3 corner = g.position(nearest(g, Vec3(0, 1, 0)));
+  for (int i = 0; i < 30; ++i) s.step();
+  EXPECT_EQ(s.garment(0).position(nearest(s.garment(0), corner)), corner);
+  s.run("pin", s.params_for("pin", {{"mode", std::string("unpin")}, {"radius", 1.0}}),
+        line(Vec3(0.5, 0.5, 0.0), Vec3(0.5, 0.5, 0.0), 1, s.time()));
+  for (Vertex v : s.garment(0).mesh().vertices()) EXPECT_FALSE(s.garment(0).pinned(v));
+  for (int i = 0; i < 30; ++i) s.step();
+  EXPECT_LT(s.garment(0).bounds().max().y(), 0.9) << "freed, the top falls too";
+}
+
+TEST(Session, UndoReturnsTheClothToRestAsleep) {
+  // A cloth at rest (asleep), pulled by a pinch, then the pinch undone: the cloth is back where it
+  // was and asleep from the next step, not woken whole to find its rest again.
+  auto owner = flat_session(1.0, 1.0, 65, 65);
+  Session& s = *owner;
+  for (int i = 0; i < 60; ++i) s.step();
+  const std::size_t all = s.garment(0).mesh().number_of_vertices();
+  ASSERT_EQ(s.solver(0).measure(s.garment(0)).sleeping, all) << "at rest for 1 s";
+  const Garment before = s.garment(0);
+  s.run("pinch", s.params_for("pinch"), line(Vec3(0.1, 0.1, 0.0), Vec3(0.1, 0.1, 0.2), 20, s.time()));
+  for (int i = 0; i < 10; ++i) s.step();
+  ASSERT_LT(s.solver(0).measure(s.garment(0)).sleeping, all) << "the pinch woke the cloth";
+  ASSERT_TRUE(s.undo());
+  s.step();
+  EXPECT_EQ(s.solver(0).measure(s.garment(0)).sleeping, all);
+  for (Vertex v : before.mesh().vertices()) ASSERT_EQ(s.garment(0).position(v), before.position(v));
+}
+
+TEST(Session, BadEventsAndParametersAreClearErrorsAndLoseNothing) {
+  auto owner = flat_session(1.0, 1.0, 11, 11);
+  Session& s = *owner;
+  const State before = state_of(s.garment(0));
+  EXPECT_THROW(s.params_for("cut", {{"blade", 1.0}}), InputError);
+  EXPECT_THROW(s.params_for("paint", {{"radius", -1.0}}), InputError);
+  EXPECT_THROW(s.params_for("paint", {{"color", Vec3(2, 0, 0)}}), InputError);
+  EXPECT_THROW(s.params_for("cut", {{"mode", std::string("laser")}}), InputError);
+  EXPECT_THROW(s.params_for("lasso"), InputError);
+  ToolEvent e;
+  e.phase = Phase::Move;
+  EXPECT_THROW(s.apply("cut", e), InputError) << "a move without a begin";
+  e.phase = Phase::Begin;
+  e.position = Vec3(NAN, 0, 0);
+  ParamSet p = s.params_for("cut");
+  EXPECT_THROW(s.apply("cut", e, &p), InputError);
+  EXPECT_FALSE(s.stroke_active());
+  expect_same(state_of(s.garment(0)), before);
+}
+
+TEST(Session, CancelRestoresTheGarment) {
+  auto owner = flat_session(1.0, 1.0, 11, 11);
+  Session& s = *owner;
+  s.set_simulating(false);
+  const State before = state_of(s.garment(0));
+  ParamSet p = s.params_for("pinch", {{"mode", std::string("whole")}});
+  Stroke stroke = line(Vec3(0.5, 0.5, 0), Vec3(0.9, 0.5, 0), 5);
+  stroke.back().phase = Phase::Cancel;
+  const std::size_t steps = s.journal().entries().size();
+  s.run("pinch", p, stroke);
+  expect_same(state_of(s.garment(0)), before);
+  EXPECT_EQ(s.journal().entries().size(), steps) << "a cancelled stroke is no step of the undo history";
+}

@@ -38,11 +38,7 @@ int main(int argc, char** argv) {
   try {
     if (command == "drape") return kiji::cli::drape_command(args);
     if (command == "tools") return kiji::cli::tools_command(args);
-    if (command == "bench" && !args.empty() && args[0] == "peers") {
-      args.erase(args.begin());
-      return kiji::cli::peer_bench_command(args);
-    }
-    if (command == "bench") return kiji::cli::bench_command(args);
+    if (command == "bench") return kiji::cli::bench_program(args);
     if (command == "recover") return kiji::cli::recover_command(args);
     if (command == "peer") return kiji::cli::peer_command(args);
     if (command == "version" || command == "--version") {

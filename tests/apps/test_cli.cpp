@@ -20,9 +20,9 @@ struct CliRun {
   std::string out;  // stdout and stderr together
 };
 
-CliRun run(const std::string& args) {
+CliRun run_program(const std::string& program, const std::string& args) {
   CliRun r;
-  const std::string cmd = std::string(KIJI_CLI) + " " + args + " 2>&1";
+  const std::string cmd = program + " " + args + " 2>&1";
   FILE* p = popen(cmd.c_str(), "r");
   if (!p) return r;
   std::array<char, 4096> buf;
@@ -32,6 +32,8 @@ CliRun run(const std::string& args) {
   r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
 }
+
+CliRun run(const std::string& args) { return run_program(KIJI_CLI, args); }
 
 std::string tmp(const std::string& name) { return std::string(KIJI_TEST_TMP) + "/cli_" + name; }
 
@@ -245,4 +247,29 @@ TEST(Cli, BenchScalingSubstepsSetsTheScalingSolversSubsteps) {
   ASSERT_EQ(at20.size(), 1u) << r20.out;
   EXPECT_GT(at10[0], 0.0);
   EXPECT_NEAR(at20[0] / at10[0], 0.5, 0.1) << at10[0] << " edges a substep at 10 substeps, " << at20[0] << " at 20";
+}
+
+// `kiji bench` runs the benchmark program built beside kiji, with its arguments and its exit code;
+// a kiji without it says what is missing and how to build it.
+TEST(Cli, BenchRunsTheBenchmarkProgramBesideKiji) {
+  CliRun r = run("bench --help");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("usage: kiji bench [--json] [--quick]"), std::string::npos) << r.out;
+  r = run("bench peers --help");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("usage: kiji bench peers"), std::string::npos) << r.out;
+  r = run("bench peers --frames x");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("kiji bench: option --frames expects a number, not 'x'"), std::string::npos) << r.out;
+
+  const std::filesystem::path alone = tmp("alone");
+  std::filesystem::remove_all(alone);
+  std::filesystem::create_directories(alone);
+  std::filesystem::copy_file(KIJI_CLI, alone / "kiji");
+  r = run_program((alone / "kiji").string(), "bench --quick");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("kiji bench: the benchmark program " + (alone / "kiji-bench").string() + " is missing"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("--target kiji_bench"), std::string::npos) << r.out;
 }

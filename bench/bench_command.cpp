@@ -2,7 +2,7 @@
 // while each tool is in use) at its sizes and a hundred times larger, Kiji's solvers beside Bullet's
 // own cloth (btSoftBody) on the same cloth, the haptic loop, and scaling with the vertex count.
 #include "args.h"
-#include "commands.h"
+#include "bench_commands.h"
 #include "kiji/body.h"
 #include "kiji/drape.h"
 #include "kiji/error.h"

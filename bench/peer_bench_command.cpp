@@ -3,7 +3,7 @@
 // with each tool while user 1 cuts), a remote stroke's latency and the time to converge after it at
 // each loss, a late join on a large garment, and the bytes a second a peer sends.
 #include "args.h"
-#include "commands.h"
+#include "bench_commands.h"
 #include "kiji/body.h"
 #include "kiji/drape.h"
 #include "kiji/error.h"

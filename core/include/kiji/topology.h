@@ -8,6 +8,7 @@
 
 #include "kiji/garment.h"
 
+#include <optional>
 #include <vector>
 
 namespace kiji {
@@ -28,6 +29,37 @@ Vertex split_vertex_between(Garment& g, Vertex v, Vertex a, Vertex b);
 // ends in a slit). A path from border to border separates the cloth into pieces. No face is lost.
 // Returns the vertices created.
 std::vector<Vertex> cut_along(Garment& g, const std::vector<Vertex>& path);
+
+// A line drawn on the cloth for the knife: the face it starts on and the points it passes through,
+// in order, the first on that face. Each point is reached by walking over the surface from the one
+// before, so the line stays on the layer it began on where the cloth lies folded over itself (a
+// point on another layer is reached only as far as the surface leads there).
+struct KnifeLine {
+  Face start;
+  std::vector<Vec3> points;
+  // The line comes back to its start: what it encloses is cut out.
+  bool closed = false;
+  // Where the stroke was off the cloth before its first point, or after its last: the line goes on
+  // over the surface towards it, to the border if the border lies on the way.
+  std::optional<Vec3> from, to;
+};
+
+struct KnifeCut {
+  std::vector<Vertex> opening;  // the vertices along the cut, in order (one side's)
+  std::vector<Vertex> created;  // vertices made: where the line crosses edges, and by opening it
+  std::vector<Vec3> line;       // the line as followed over the surface: where it crosses each edge
+  bool closed = false;          // the line was closed and its inside cut out
+};
+
+// Cuts the cloth along a drawn line: where the line crosses an edge a vertex is made (or, within
+// three tenths of the edge from a vertex, that vertex is moved onto the line: no sliver triangles),
+// the faces crossed are triangulated again with the line's pieces as edges, and the line is opened.
+// A line that runs into the cloth ends in a slit; border to border, or closed, it makes pieces. A
+// line that crosses itself inside one triangle is refused (InputError), changing nothing.
+KnifeCut cut_line(Garment& g, const KnifeLine& line);
+
+// The line the knife would follow, without cutting: a preview.
+std::vector<Vec3> trace_line(const Garment& g, const KnifeLine& line);
 
 // The shortest path of edges from `from` to `to` (Dijkstra on edge lengths); throws InputError if
 // they are not connected.

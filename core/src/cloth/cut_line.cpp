@@ -1,0 +1,729 @@
+// The knife along a drawn line: the line is followed over the surface from where it starts, face
+// to face, so that it stays on the layer it began on where the cloth lies folded over itself. Where
+// it crosses an edge a vertex is made; where the crossing is close to a vertex, that vertex is moved
+// onto the line instead, so that no sliver triangle is made. The faces crossed are triangulated
+// again with the line's pieces as edges (the triangulation that keeps the smallest angle largest),
+// and the line is opened: each vertex on it is split between the faces on its two sides.
+#include "kiji/topology.h"
+
+#include "cloth/garment_soup.h"
+#include "kiji/error.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <numeric>
+#include <set>
+#include <unordered_map>
+#include <unordered_set>
+
+namespace kiji {
+
+namespace {
+
+using detail::commit;
+using detail::edge_key;
+using detail::EdgeData;
+using detail::Index;
+using detail::Soup;
+using detail::VertexData;
+
+// A crossing this close to a vertex, as a share of the edge, moves the vertex onto the line: nearer,
+// the new triangles would have an edge under a third of the others' and angles of a few degrees.
+constexpr double kMoveVertex = 0.3;
+// Once vertices are on the line, a crossing this close to one that could not be moved (a pinned one,
+// a border one off the border's line) goes through it.
+constexpr double kThroughVertex = 0.12;
+// A vertex moved onto the line keeps the smallest angle of each face around it at least this (in
+// degrees), or what the face had if that was less.
+constexpr double kSmallestAngle = 20;
+
+struct Adjacency {
+  std::unordered_map<std::uint64_t, std::array<int, 2>> faces;
+  explicit Adjacency(const Soup& s) {
+    faces.reserve(s.faces.size() * 2);
+    for (int f = 0; f < int(s.faces.size()); ++f)
+      for (int k = 0; k < 3; ++k) {
+        auto [it, fresh] = faces.emplace(edge_key(s.faces[f][k], s.faces[f][(k + 1) % 3]), std::array<int, 2>{f, -1});
+        if (!fresh) it->second[1] = f;
+      }
+  }
+  int other(std::uint64_t key, int f) const {
+    const auto it = faces.find(key);
+    if (it == faces.end()) return -1;
+    return it->second[0] == f ? it->second[1] : it->second[0];
+  }
+  bool border(std::uint64_t key) const {
+    const auto it = faces.find(key);
+    return it != faces.end() && it->second[1] < 0;
+  }
+};
+
+Vec3 barycentric(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 n = (b - a).cross(c - a);
+  const double d = n.squaredNorm();
+  if (!(d > 0)) return Vec3(1.0 / 3, 1.0 / 3, 1.0 / 3);
+  const double la = n.dot((c - b).cross(p - b)) / d;
+  const double lb = n.dot((a - c).cross(p - c)) / d;
+  return Vec3(la, lb, 1.0 - la - lb);
+}
+
+// Where the line crosses an edge (a < b), at the share t of the way from a to b, leaving face
+// `from` for face `to` (-1: the border, where the line leaves the cloth).
+struct Crossing {
+  Index a = 0, b = 0;
+  double t = 0;
+  int from = -1, to = -1;
+  Vec3 point = Vec3::Zero();
+};
+
+// A point of the line on the surface: its face, where on it, and the corner of the face opposite
+// the edge it came in by (-1: none), which the walk does not leave by at once.
+struct Cursor {
+  int face = -1;
+  Vec3 point = Vec3::Zero();
+  int entered_opposite = -1;
+};
+
+class Walker {
+ public:
+  Walker(const Soup& s, const Adjacency& adj) : s_(s), adj_(adj) {}
+
+  // Walks from `c` towards `target` over the surface, appending the edges crossed, until the point
+  // of the face under the target is reached, the surface turns back (a fold's crease: the line
+  // stays on its layer), or the border is met. Returns false at the border.
+  bool walk(Cursor& c, const Vec3& target, std::vector<Crossing>& out) {
+    Cursor best = c;
+    std::size_t best_size = out.size();
+    double best_distance = (c.point - target).norm();
+    int stalled = 0;
+    for (std::size_t guard = 0; guard < 4 * s_.faces.size() + 16; ++guard) {
+      const auto& f = s_.faces[c.face];
+      const Vec3 p[3] = {pos(f[0]), pos(f[1]), pos(f[2])};
+      Vec3 n = (p[1] - p[0]).cross(p[2] - p[0]);
+      if (!(n.norm() > 0)) return true;  // a collapsed face: the line ends on it
+      n.normalize();
+      const Vec3 onto = target - n * n.dot(target - c.point);
+      const Vec3 lt = barycentric(onto, p[0], p[1], p[2]);
+      const Vec3 lq = barycentric(c.point, p[0], p[1], p[2]).cwiseMax(0.0);
+      if (lt.minCoeff() >= -1e-12) {
+        c.point = onto;
+        return true;
+      }
+      int exit = -1;
+      double exit_s = std::numeric_limits<double>::infinity();
+      for (int k = 0; k < 3; ++k) {
+        if (!(lt[k] < 0) || k == c.entered_opposite) continue;
+        const double s = std::max(0.0, lq[k] / (lq[k] - lt[k]));
+        if (s < exit_s) exit_s = s, exit = k;
+      }
+      if (exit < 0) return true;  // only back the way it came: the surface folds back here
+      const Vec3 lx = lq + exit_s * (lt - lq);
+      Index a = f[(exit + 1) % 3], b = f[(exit + 2) % 3];
+      const double wa = std::max(0.0, lx[(exit + 1) % 3]), wb = std::max(0.0, lx[(exit + 2) % 3]);
+      double t = wa + wb > 0 ? wb / (wa + wb) : 0.5;
+      if (a > b) std::swap(a, b), t = 1.0 - t;
+      Crossing x;
+      x.a = a;
+      x.b = b;
+      x.t = t;
+      x.point = (1 - t) * pos(a) + t * pos(b);
+      x.from = c.face;
+      x.to = adj_.other(edge_key(a, b), c.face);
+      out.push_back(x);
+      if (x.to < 0) return false;
+      const auto& g = s_.faces[x.to];
+      int opposite = 0;
+      while (g[opposite] == a || g[opposite] == b) ++opposite;
+      c = Cursor{x.to, x.point, opposite};
+      // Circling a vertex or a crease without getting nearer: back to the nearest point reached.
+      const double d = (c.point - target).norm();
+      if (d < best_distance - 1e-12) {
+        best_distance = d;
+        best = c;
+        best_size = out.size();
+        stalled = 0;
+      } else if (++stalled > 8) {
+        out.resize(best_size);
+        c = best;
+        return true;
+      }
+    }
+    out.resize(best_size);
+    c = best;
+    return true;
+  }
+
+ private:
+  const Vec3& pos(Index v) const { return s_.vertices[v].position; }
+  const Soup& s_;
+  const Adjacency& adj_;
+};
+
+// The triangulation of a convex polygon (2D corners in order) that keeps its smallest angle
+// largest; triangles as corner indices, in the polygon's order.
+std::vector<std::array<int, 3>> best_triangulation(const std::vector<Vec2>& q) {
+  const int n = int(q.size());
+  std::vector<std::array<int, 3>> out;
+  if (n < 3) return out;
+  if (n == 3) return {{0, 1, 2}};
+  auto angle = [&](int i, int j, int k) {  // at j
+    const Vec2 u = q[i] - q[j], v = q[k] - q[j];
+    const double nu = u.norm(), nv = v.norm();
+    if (!(nu > 0 && nv > 0)) return 0.0;
+    return std::acos(std::clamp(u.dot(v) / (nu * nv), -1.0, 1.0));
+  };
+  auto quality = [&](int i, int j, int k) {
+    const double area = (q[j] - q[i]).x() * (q[k] - q[i]).y() - (q[j] - q[i]).y() * (q[k] - q[i]).x();
+    if (!(std::abs(area) > 1e-18)) return 0.0;
+    return std::min({angle(k, i, j), angle(i, j, k), angle(j, k, i)});
+  };
+  std::vector<double> best(n * n, std::numeric_limits<double>::infinity());
+  std::vector<int> split(n * n, -1);
+  for (int len = 2; len < n; ++len)
+    for (int i = 0; i + len < n; ++i) {
+      const int j = i + len;
+      double b = -1;
+      for (int k = i + 1; k < j; ++k) {
+        double v = quality(i, k, j);
+        if (k - i > 1) v = std::min(v, best[i * n + k]);
+        if (j - k > 1) v = std::min(v, best[k * n + j]);
+        if (v > b) b = v, split[i * n + j] = k;
+      }
+      best[i * n + j] = b;
+    }
+  std::vector<std::pair<int, int>> stack{{0, n - 1}};
+  while (!stack.empty()) {
+    const auto [i, j] = stack.back();
+    stack.pop_back();
+    if (j - i < 2) continue;
+    const int k = split[i * n + j];
+    out.push_back({i, k, j});
+    stack.emplace_back(i, k);
+    stack.emplace_back(k, j);
+  }
+  return out;
+}
+
+class Knife {
+ public:
+  Knife(const Garment& g, const KnifeLine& line) : g_(g), line_(line), s_(detail::to_soup(g)), adj_(s_) {}
+
+  // Cuts `target` (the garment read), or only follows the line when it is null.
+  KnifeCut run(Garment* target) {
+    const bool dry = !target;
+    follow();
+    if (!dry && !crossings_.empty()) {
+      border_.assign(s_.vertices.size(), 0);
+      for (const auto& [key, faces] : adj_.faces)
+        if (faces[1] < 0) border_[key >> 32] = border_[key & 0xffffffffu] = 1;
+      inc_ = s_.incidence();
+      // Vertices near the line are moved onto it, and the line is followed again over the faces so
+      // changed: it now goes through them.
+      if (move_vertices_onto_line()) {
+        crossings_.clear();
+        followed_.clear();
+        follow();
+      }
+    }
+    KnifeCut out;
+    out.line = followed_;
+    if (dry || crossings_.empty()) {
+      out.closed = closed_;
+      return out;
+    }
+    resolve();
+    out.closed = closed_;
+    if (path_.size() < 2 && segments_.empty()) return out;
+    rebuild_faces();
+    open(out);
+    detail::check_manifold(s_, "cut");
+    commit(*target, s_, "cut");
+    return out;
+  }
+
+ private:
+  // --- 1. the line over the surface ---
+  void follow() {
+    const Mesh& m = g_.mesh();
+    if (line_.start == Mesh::null_face() || line_.start.idx() >= m.number_of_faces() + m.number_of_removed_faces() ||
+        m.is_removed(line_.start))
+      throw InputError("cut: the line's start is not a face of garment '" + g_.name + "'");
+    if (line_.points.empty()) throw InputError("cut: a line needs at least one point on the cloth");
+    for (const Vec3& p : line_.points)
+      if (!p.allFinite()) throw InputError("cut: a point of the line is not finite");
+    int start = 0;
+    for (Face f : m.faces()) {
+      if (f == line_.start) break;
+      ++start;
+    }
+    Walker walker(s_, adj_);
+    Cursor c{start, line_.points.front(), -1};
+    // Onto the start face first.
+    {
+      const auto& f = s_.faces[start];
+      const Vec3 l = barycentric(c.point, pos(f[0]), pos(f[1]), pos(f[2])).cwiseMax(0.0);
+      c.point = (l[0] * pos(f[0]) + l[1] * pos(f[1]) + l[2] * pos(f[2])) / l.sum();
+    }
+    const Cursor first = c;
+    // From the border: the line carried back from its start towards where the stroke came from.
+    if (line_.from) {
+      Cursor back = c;
+      std::vector<Crossing> before;
+      walker.walk(back, *line_.from, before);
+      for (auto it = before.rbegin(); it != before.rend(); ++it) {
+        Crossing x = *it;
+        std::swap(x.from, x.to);
+        crossings_.push_back(x);
+        followed_.push_back(x.point);
+      }
+    }
+    followed_.push_back(c.point);
+    bool on_cloth = true;
+    for (std::size_t i = 1; i < line_.points.size() && on_cloth; ++i) on_cloth = step(walker, c, line_.points[i]);
+    if (on_cloth && line_.to) on_cloth = step(walker, c, *line_.to);
+    closed_ = line_.closed && on_cloth && !line_.from && !line_.to;
+    if (closed_ && crossings_.size() >= 2) {
+      // Back to where the line first crossed an edge; a crossing of that same point again is that one.
+      const Crossing first_crossing = crossings_.front();
+      step(walker, c, first_crossing.point);
+      const double tiny = 1e-9 * (1.0 + first_crossing.point.norm());
+      while (crossings_.size() > 2 && (crossings_.back().point - first_crossing.point).norm() < tiny) {
+        crossings_.pop_back();
+        followed_.pop_back();
+      }
+      if (crossings_.back().to != crossings_.front().from && crossings_.back().to == crossings_.front().to) {
+        crossings_.erase(crossings_.begin());  // it came back on the other side of the first edge
+        followed_.erase(followed_.begin() + (line_.from ? 0 : 1));
+      }
+      closed_ = crossings_.size() >= 3;
+    } else {
+      closed_ = false;
+    }
+    if (!closed_ && !followed_.empty() && c.face >= 0 && on_cloth) followed_.push_back(c.point);
+  }
+
+  bool step(Walker& walker, Cursor& c, const Vec3& target) {
+    std::vector<Crossing> part;
+    const bool on = walker.walk(c, target, part);
+    for (const Crossing& x : part) {
+      crossings_.push_back(x);
+      followed_.push_back(x.point);
+    }
+    return on;
+  }
+
+  // --- 2. a vertex for each crossing ---
+  bool move_vertices_onto_line() {
+    for (const Crossing& x : crossings_) {
+      const bool near_a = x.t < kMoveVertex, near_b = 1.0 - x.t < kMoveVertex;
+      if (!near_a && !near_b) continue;
+      const Index w = (near_a && (!near_b || x.t <= 1.0 - x.t)) ? x.a : x.b;
+      const Index other = w == x.a ? x.b : x.a;
+      // A border vertex moves only along the border, which keeps the border's line.
+      if (moved_.count(w) || s_.vertices[w].inverse_mass == 0.0 || (border_[w] && !adj_.border(edge_key(x.a, x.b))))
+        continue;
+      move_onto_line(w, other, x);
+    }
+    return !moved_.empty();
+  }
+
+  void resolve() {
+    std::vector<Index> at(crossings_.size());
+    for (std::size_t i = 0; i < crossings_.size(); ++i) at[i] = vertex_for(crossings_[i]);
+    // The line's pieces: between consecutive crossings, across the face they share.
+    // A piece lies across the face the first crossing enters, when the second lies on that face's
+    // edges (on one of them, or at a corner).
+    auto on_face = [&](std::size_t j, int face) {
+      const auto& f = s_.faces[face];
+      const Crossing& x = crossings_[j];
+      int has = 0;
+      for (Index v : f) has += (v == x.a) + (v == x.b);
+      return has == 2 || std::count(f.begin(), f.end(), at[j]) > 0;
+    };
+    auto piece = [&](std::size_t i, std::size_t j) {
+      if (at[i] == at[j]) return true;
+      const int face = crossings_[i].to;
+      if (face < 0 || !on_face(j, face)) return false;
+      chords_[face].emplace_back(at[i], at[j]);
+      return true;
+    };
+    for (std::size_t i = 0; i + 1 < crossings_.size(); ++i) piece(i, i + 1);
+    if (closed_ && !piece(crossings_.size() - 1, 0)) closed_ = false;
+    for (Index v : at)
+      if (path_.empty() || path_.back() != v) path_.push_back(v);
+    if (closed_ && path_.size() > 1 && path_.front() == path_.back()) path_.pop_back();
+    for (const auto& [face, chords] : chords_)
+      for (const auto& [a, b] : chords) segments_.insert(edge_key(a, b));
+  }
+
+  Index vertex_for(const Crossing& x) {
+    const bool near_a = x.t < kThroughVertex, near_b = 1.0 - x.t < kThroughVertex;
+    if (near_a || near_b) return (near_a && (!near_b || x.t <= 1.0 - x.t)) ? x.a : x.b;
+    // A new vertex on the edge, unless one is already close on it (the line crossed it twice).
+    auto& points = on_edge_[edge_key(x.a, x.b)];
+    for (const auto& [t, v] : points)
+      if (std::abs(t - x.t) < kThroughVertex) return v;
+    VertexData d;
+    d.alive = true;
+    d.position = x.point;
+    d.velocity = (1 - x.t) * s_.vertices[x.a].velocity + x.t * s_.vertices[x.b].velocity;
+    d.inverse_mass = 1.0;
+    const Index v = s_.add_vertex(d);
+    points.emplace_back(x.t, v);
+    made_.insert(v);
+    return v;
+  }
+
+  // Moves vertex w along its edge to `other` onto the crossing, in space and in its pattern (uv),
+  // if every face around it keeps its orientation and most of its area, and w's faces share one uv
+  // there (no uv seam through it). Returns false, changing nothing, otherwise.
+  bool move_onto_line(Index w, Index other, const Crossing& x) {
+    const double share = w == x.a ? x.t : 1.0 - x.t;
+    // The move in uv, from a face with the edge (w, other).
+    Vec2 uv_w = Vec2::Zero(), delta = Vec2::Zero();
+    bool found = false;
+    for (Index f : inc_[w]) {
+      const auto& face = s_.faces[f];
+      int kw = -1, ko = -1;
+      for (int k = 0; k < 3; ++k) {
+        if (face[k] == w) kw = k;
+        if (face[k] == other) ko = k;
+      }
+      if (ko < 0) continue;
+      uv_w = s_.uvs[f][kw];
+      delta = share * (s_.uvs[f][ko] - uv_w);
+      found = true;
+      break;
+    }
+    if (!found) return false;
+    std::vector<std::pair<Index, int>> corners;
+    for (Index f : inc_[w]) {
+      const auto& face = s_.faces[f];
+      int kw = 0;
+      while (face[kw] != w) ++kw;
+      if ((s_.uvs[f][kw] - uv_w).norm() > 1e-9) return false;  // a uv seam runs through w
+      const auto& uv = s_.uvs[f];
+      auto area = [&](const Vec2& p0, const Vec2& p1, const Vec2& p2) {
+        return (p1 - p0).x() * (p2 - p0).y() - (p1 - p0).y() * (p2 - p0).x();
+      };
+      std::array<Vec2, 3> moved = uv;
+      moved[kw] += delta;
+      const double before = area(uv[0], uv[1], uv[2]), after = area(moved[0], moved[1], moved[2]);
+      if (!(std::abs(before) > 0) || after / before < 0.2) return false;
+      if (smallest_angle(moved) < std::min(kSmallestAngle, smallest_angle(uv))) return false;
+      corners.emplace_back(f, kw);
+    }
+    for (const auto& [f, kw] : corners) {
+      original_uvs_.emplace(f, s_.uvs[f]);
+      s_.uvs[f][kw] += delta;
+    }
+    VertexData& d = s_.vertices[w];
+    const Index o = other;
+    d.velocity = (1 - share) * d.velocity + share * s_.vertices[o].velocity;
+    d.position = x.point;
+    moved_.insert(w);
+    return true;
+  }
+
+  // --- 3. the faces crossed, triangulated again with the line's pieces as edges ---
+  void rebuild_faces() {
+    std::set<Index> touched;
+    for (const auto& [key, points] : on_edge_) {
+      const auto it = adj_.faces.find(key);
+      for (int f : it->second)
+        if (f >= 0) touched.insert(Index(f));
+      // Along each edge, from its smaller vertex to its larger.
+    }
+    for (auto& [key, points] : on_edge_) std::sort(points.begin(), points.end());
+    for (const auto& [face, chords] : chords_) touched.insert(Index(face));
+    // Faces whose edge data must be measured again: those rebuilt and those around a moved vertex.
+    std::set<Index> remeasure(touched.begin(), touched.end());
+    for (Index w : moved_)
+      for (Index f : inc_[w]) remeasure.insert(f);
+    // Each original face's rest metric: rest length per unit of uv, and tear threshold per rest length.
+    std::map<Index, std::pair<double, double>> metric;
+    for (Index f : remeasure) metric[f] = face_metric(f);
+
+    std::vector<char> drop(s_.faces.size(), 0);
+    struct NewFace {
+      std::array<Index, 3> v;
+      std::array<Vec2, 3> uv;
+      int panel;
+      Index from;
+    };
+    std::vector<NewFace> made;
+    for (Index f : touched) {
+      drop[f] = 1;
+      const auto face = s_.faces[f];
+      const auto uv = s_.uvs[f];
+      // The boundary: each corner, then the points on the edge to the next corner.
+      std::vector<Index> ring;
+      std::vector<Vec2> ring_uv;
+      std::vector<int> edge_of;  // the original edge (0..2) a point lies on; a corner k: 3 + k
+      for (int k = 0; k < 3; ++k) {
+        const Index a = face[k], b = face[(k + 1) % 3];
+        ring.push_back(a);
+        ring_uv.push_back(uv[k]);
+        edge_of.push_back(3 + k);
+        const auto it = on_edge_.find(edge_key(a, b));
+        if (it == on_edge_.end()) continue;
+        std::vector<std::pair<double, Index>> along = it->second;
+        if (a > b) {
+          for (auto& [t, v] : along) t = 1.0 - t;
+          std::sort(along.begin(), along.end());
+        }
+        const Vec2 ua = uv[k], ub = uv[(k + 1) % 3];
+        for (const auto& [t, v] : along) {
+          ring.push_back(v);
+          ring_uv.push_back((1 - t) * ua + t * ub);
+          edge_of.push_back(k);
+        }
+      }
+      // The line's pieces across this face, as ring positions; a piece along an edge needs no split.
+      std::vector<std::pair<int, int>> chords;
+      const auto found = chords_.find(int(f));
+      if (found != chords_.end())
+        for (const auto& [p, q] : found->second) {
+          const int i = int(std::find(ring.begin(), ring.end(), p) - ring.begin());
+          const int j = int(std::find(ring.begin(), ring.end(), q) - ring.begin());
+          if (i >= int(ring.size()) || j >= int(ring.size()))
+            throw TopologyError("cut: the line's piece across a face does not end on the face's edges");
+          if (same_side(edge_of, i, j)) {
+            segments_.erase(edge_key(p, q));
+            mark_along(ring, edge_of, i, j);
+            continue;
+          }
+          chords.emplace_back(i, j);
+        }
+      // 2D coordinates to measure angles in: the uv, or the face's plane where the uv is flat.
+      std::vector<Vec2> flat = ring_uv;
+      if (!(std::abs(area2(ring_uv[0], ring_uv[index_of_corner(edge_of, 1)], ring_uv[index_of_corner(edge_of, 2)])) >
+            1e-18))
+        flat = plane_coordinates(ring);
+      std::vector<int> all(ring.size());
+      std::iota(all.begin(), all.end(), 0);
+      for (const auto& tri : split_and_triangulate(all, chords, flat))
+        made.push_back({{ring[tri[0]], ring[tri[1]], ring[tri[2]]},
+                        {ring_uv[tri[0]], ring_uv[tri[1]], ring_uv[tri[2]]},
+                        s_.panels[f],
+                        f});
+    }
+    // Edge data: kept where an edge is as it was; else measured in the uv of each face it borders.
+    std::unordered_map<std::uint64_t, std::pair<EdgeData, int>> measured;
+    auto measure = [&](const std::array<Index, 3>& v, const std::array<Vec2, 3>& uv, Index from) {
+      const auto [per_uv, tear] = metric.at(from);
+      for (int k = 0; k < 3; ++k) {
+        const Index a = v[k], b = v[(k + 1) % 3];
+        const std::uint64_t key = edge_key(a, b);
+        const bool same = !made_.count(a) && !made_.count(b) && !moved_.count(a) && !moved_.count(b) &&
+                          s_.edges.count(key) && !on_edge_.count(key);
+        if (same) continue;
+        double rest = per_uv > 0 ? per_uv * (uv[(k + 1) % 3] - uv[k]).norm()
+                                 : (s_.vertices[b].position - s_.vertices[a].position).norm();
+        auto& [data, n] = measured[key];
+        data.rest += rest;
+        data.threshold += tear * rest;
+        ++n;
+      }
+    };
+    for (const NewFace& nf : made) measure(nf.v, nf.uv, nf.from);
+    for (Index f : remeasure)
+      if (!drop[f]) measure(s_.faces[f], s_.uvs[f], f);
+    for (const auto& [key, points] : on_edge_) s_.edges.erase(key);
+    for (auto& [key, value] : measured) {
+      auto& [data, n] = value;
+      s_.edges[key] = {data.rest / n, data.threshold / n};
+    }
+    s_.erase_faces(drop);
+    for (const NewFace& nf : made) s_.add_face(nf.v, nf.uv, nf.panel);
+  }
+
+  // Rest length per unit of uv over a face's edges (0 where its uv is flat: rest lengths follow the
+  // positions then), and tear threshold per rest length.
+  std::pair<double, double> face_metric(Index f) const {
+    const auto& face = s_.faces[f];
+    double rest = 0, uv = 0, threshold = 0;
+    for (int k = 0; k < 3; ++k) {
+      const auto it = s_.edges.find(edge_key(face[k], face[(k + 1) % 3]));
+      const EdgeData d = it != s_.edges.end() ? it->second : EdgeData{};
+      rest += d.rest;
+      threshold += d.threshold;
+      uv += (original_uv(f, (k + 1) % 3) - original_uv(f, k)).norm();
+    }
+    const double tear = rest > 0 ? threshold / rest : g_.material().tear_ratio;
+    return {uv > 1e-12 ? rest / uv : 0.0, tear};
+  }
+
+  // A corner's uv before any vertex was moved onto the line.
+  Vec2 original_uv(Index f, int k) const {
+    const auto it = original_uvs_.find(f);
+    return it != original_uvs_.end() ? it->second[k] : s_.uvs[f][k];
+  }
+
+  static double smallest_angle(const std::array<Vec2, 3>& q) {
+    double smallest = 180;
+    for (int k = 0; k < 3; ++k) {
+      const Vec2 u = q[(k + 1) % 3] - q[k], v = q[(k + 2) % 3] - q[k];
+      if (!(u.norm() > 0 && v.norm() > 0)) return 0;
+      smallest = std::min(smallest, std::acos(std::clamp(u.dot(v) / (u.norm() * v.norm()), -1.0, 1.0)) * 180 / M_PI);
+    }
+    return smallest;
+  }
+
+  static double area2(const Vec2& a, const Vec2& b, const Vec2& c) {
+    return (b - a).x() * (c - a).y() - (b - a).y() * (c - a).x();
+  }
+  static int index_of_corner(const std::vector<int>& edge_of, int k) {
+    return int(std::find(edge_of.begin(), edge_of.end(), 3 + k) - edge_of.begin());
+  }
+  // Whether ring positions i and j lie on one edge of the original face (a corner counts for both
+  // its edges).
+  static bool same_side(const std::vector<int>& edge_of, int i, int j) {
+    auto sides = [&](int p) {
+      const int e = edge_of[p];
+      return e >= 3 ? std::array<int, 2>{e - 3, (e - 3 + 2) % 3} : std::array<int, 2>{e, e};
+    };
+    for (int a : sides(i))
+      for (int b : sides(j))
+        if (a == b) return true;
+    return false;
+  }
+  // A piece of the line along an edge: the pieces of the edge between its ends are cut.
+  void mark_along(const std::vector<Index>& ring, const std::vector<int>& edge_of, int i, int j) {
+    (void)edge_of;
+    const int n = int(ring.size());
+    // The shorter way round the ring between i and j runs along the edge.
+    const int forward = (j - i + n) % n, backward = (i - j + n) % n;
+    const int step = forward <= backward ? 1 : -1;
+    for (int p = i; p != j; p = (p + step + n) % n) segments_.insert(edge_key(ring[p], ring[(p + step + n) % n]));
+  }
+
+  std::vector<Vec2> plane_coordinates(const std::vector<Index>& ring) const {
+    const Vec3 o = pos(ring[0]);
+    Vec3 n = Vec3::Zero();
+    for (std::size_t i = 1; i + 1 < ring.size(); ++i) n += (pos(ring[i]) - o).cross(pos(ring[i + 1]) - o);
+    n = n.norm() > 0 ? Vec3(n.normalized()) : Vec3::UnitZ();
+    Vec3 u = n.unitOrthogonal(), w = n.cross(u);
+    std::vector<Vec2> out;
+    for (Index v : ring) out.emplace_back((pos(v) - o).dot(u), (pos(v) - o).dot(w));
+    return out;
+  }
+
+  // Splits the polygon (ring positions, in order) at the first chord between two of its corners
+  // that are not neighbours, recursively; then triangulates each part.
+  static std::vector<std::array<int, 3>> split_and_triangulate(const std::vector<int>& poly,
+                                                              const std::vector<std::pair<int, int>>& chords,
+                                                              const std::vector<Vec2>& flat) {
+    const int n = int(poly.size());
+    for (const auto& [p, q] : chords) {
+      const int i = int(std::find(poly.begin(), poly.end(), p) - poly.begin());
+      const int j = int(std::find(poly.begin(), poly.end(), q) - poly.begin());
+      if (i >= n || j >= n) continue;
+      const int gap = (j - i + n) % n;
+      if (gap <= 1 || gap >= n - 1) continue;  // neighbours: already an edge
+      std::vector<int> one, two;
+      for (int k = i;; k = (k + 1) % n) {
+        one.push_back(poly[k]);
+        if (k == j) break;
+      }
+      for (int k = j;; k = (k + 1) % n) {
+        two.push_back(poly[k]);
+        if (k == i) break;
+      }
+      // A chord that crosses this one has an end on each side.
+      for (const auto& [r, s] : chords) {
+        const bool r1 = std::count(one.begin(), one.end(), r) && r != p && r != q;
+        const bool s1 = std::count(one.begin(), one.end(), s) && s != p && s != q;
+        const bool r2 = std::count(two.begin(), two.end(), r) && r != p && r != q;
+        const bool s2 = std::count(two.begin(), two.end(), s) && s != p && s != q;
+        if ((r1 && s2) || (r2 && s1))
+          throw InputError("cut: the line crosses itself inside one triangle; draw it without crossing itself");
+      }
+      auto a = split_and_triangulate(one, chords, flat);
+      auto b = split_and_triangulate(two, chords, flat);
+      a.insert(a.end(), b.begin(), b.end());
+      return a;
+    }
+    std::vector<Vec2> q;
+    for (int p : poly) q.push_back(flat[p]);
+    std::vector<std::array<int, 3>> out;
+    for (const auto& t : best_triangulation(q)) out.push_back({poly[t[0]], poly[t[1]], poly[t[2]]});
+    return out;
+  }
+
+  // --- 4. the line opened ---
+  void open(KnifeCut& out) {
+    const auto inc = s_.incidence();
+    std::set<Index> on_line;
+    for (std::uint64_t key : segments_) {
+      on_line.insert(Index(key >> 32));
+      on_line.insert(Index(key & 0xffffffffu));
+    }
+    for (Index v : path_) out.opening.push_back(Vertex(v));
+    for (Index v : made_) out.created.push_back(Vertex(v));
+    for (Index v : on_line) {
+      const auto& fs = inc[v];
+      if (fs.size() < 2) continue;
+      // Faces around v joined across each edge (v, w) that the line does not cut.
+      std::vector<std::size_t> parent(fs.size());
+      std::iota(parent.begin(), parent.end(), 0);
+      auto find = [&](std::size_t i) {
+        while (parent[i] != i) i = parent[i] = parent[parent[i]];
+        return i;
+      };
+      std::unordered_map<Index, std::size_t> first_with;
+      for (std::size_t i = 0; i < fs.size(); ++i)
+        for (Index w : s_.faces[fs[i]]) {
+          if (w == v || segments_.count(edge_key(v, w))) continue;
+          auto [it, fresh] = first_with.emplace(w, i);
+          if (!fresh) parent[find(i)] = find(it->second);
+        }
+      std::map<std::size_t, Index> vertex_of;
+      for (std::size_t i = 0; i < fs.size(); ++i) {
+        const std::size_t r = find(i);
+        auto it = vertex_of.find(r);
+        if (it == vertex_of.end()) {
+          const Index nv = vertex_of.empty() ? v : s_.add_vertex(s_.vertices[v]);
+          if (nv != v) out.created.push_back(Vertex(nv));
+          it = vertex_of.emplace(r, nv).first;
+        }
+        if (it->second == v) continue;
+        for (Index& c : s_.faces[fs[i]])
+          if (c == v) c = it->second;
+        for (Index w : s_.faces[fs[i]]) {
+          if (w == it->second) continue;
+          const auto e = s_.edges.find(edge_key(v, w));
+          if (e != s_.edges.end()) s_.edges.emplace(edge_key(it->second, w), e->second);
+        }
+      }
+    }
+  }
+
+  const Vec3& pos(Index v) const { return s_.vertices[v].position; }
+
+  const Garment& g_;
+  const KnifeLine& line_;
+  Soup s_;
+  Adjacency adj_;
+  std::vector<Crossing> crossings_;
+  std::vector<Vec3> followed_;
+  bool closed_ = false;
+  std::vector<char> border_;
+  std::vector<std::vector<Index>> inc_;
+  std::set<Index> moved_, made_;
+  std::map<Index, std::array<Vec2, 3>> original_uvs_;
+  std::unordered_map<std::uint64_t, std::vector<std::pair<double, Index>>> on_edge_;
+  std::map<int, std::vector<std::pair<Index, Index>>> chords_;
+  std::set<std::uint64_t> segments_;
+  std::vector<Index> path_;
+};
+
+}  // namespace
+
+KnifeCut cut_line(Garment& g, const KnifeLine& line) { return Knife(g, line).run(&g); }
+
+std::vector<Vec3> trace_line(const Garment& g, const KnifeLine& line) { return Knife(g, line).run(nullptr).line; }
+
+}  // namespace kiji

@@ -1,0 +1,227 @@
+// The knife along a drawn line: the opening follows the line (within a quarter of the vertex
+// spacing), the triangles stay well shaped, no cloth is lost, a closed line cuts out its inside,
+// and a line drawn on cloth folded over itself stays on the layer it began on.
+#include "kiji/error.h"
+#include "kiji/pattern.h"
+#include "kiji/topology.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+using namespace kiji;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// The face of the garment under a point of the plane z = `z` (the nearest centroid).
+Face face_at(const Garment& g, const Vec3& p) {
+  Face best;
+  double d = 1e300;
+  for (Face f : g.mesh().faces()) {
+    Vec3 c = Vec3::Zero();
+    for (Vertex v : CGAL::vertices_around_face(g.mesh().halfedge(f), g.mesh())) c += g.position(v) / 3;
+    if ((c - p).squaredNorm() < d) d = (c - p).squaredNorm(), best = f;
+  }
+  return best;
+}
+
+double total_rest_area(const Garment& g) {
+  double a = 0;
+  for (Face f : g.mesh().faces()) a += g.rest_area(f);
+  return a;
+}
+
+// The smallest angle of any face, in degrees, from its rest lengths.
+double smallest_angle(const Garment& g) {
+  const Mesh& m = g.mesh();
+  double smallest = 180;
+  for (Face f : m.faces()) {
+    std::vector<double> l;
+    for (Halfedge h : CGAL::halfedges_around_face(m.halfedge(f), m)) l.push_back(g.rest_length(m.edge(h)));
+    for (int k = 0; k < 3; ++k) {
+      const double a = l[k], b = l[(k + 1) % 3], c = l[(k + 2) % 3];  // the angle opposite c
+      smallest = std::min(smallest, std::acos(std::clamp((a * a + b * b - c * c) / (2 * a * b), -1.0, 1.0)) * 180 / kPi);
+    }
+  }
+  return smallest;
+}
+
+double distance_to_polyline(const Vec3& p, const std::vector<Vec3>& line) {
+  double d = 1e300;
+  for (std::size_t i = 0; i + 1 < line.size(); ++i) {
+    const Vec3 a = line[i], ab = line[i + 1] - a;
+    const double t = std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+    d = std::min(d, (a + t * ab - p).norm());
+  }
+  return d;
+}
+
+// The border loops that the cut made: those with a vertex away from the rectangle's outline.
+std::vector<std::vector<Vertex>> inner_loops(const Garment& g, double width, double height) {
+  std::vector<std::vector<Vertex>> out;
+  for (const auto& loop : border_loops(g)) {
+    bool inner = true;
+    for (Vertex v : loop) {
+      const Vec3 p = g.position(v);
+      if (p.x() < 1e-9 || p.y() < 1e-9 || p.x() > width - 1e-9 || p.y() > height - 1e-9) inner = false;
+    }
+    if (inner) out.push_back(loop);
+  }
+  return out;
+}
+
+std::vector<Vec3> circle(const Vec3& centre, double rx, double ry, int n, double z = 0) {
+  std::vector<Vec3> out;
+  for (int i = 0; i < n; ++i) {
+    const double a = 2 * kPi * i / n;
+    out.emplace_back(centre.x() + rx * std::cos(a), centre.y() + ry * std::sin(a), z);
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST(CutLine, AClosedLoopCutsOutItsInsideAlongTheDrawnCurve) {
+  const double spacing = 0.02;
+  Garment g = make_rectangle_spaced(0.6, 0.6, spacing);
+  const double area = total_rest_area(g);
+  const Vec3 centre(0.3, 0.3, 0);
+  KnifeLine line;
+  line.points = circle(centre, 0.12, 0.09, 140);  // an ellipse, as a head opening is drawn
+  line.start = face_at(g, line.points.front());
+  line.closed = true;
+  const KnifeCut cut = cut_line(g, line);
+  EXPECT_TRUE(cut.closed);
+  EXPECT_TRUE(g.is_valid());
+  EXPECT_EQ(g.count_pieces(), 2u);
+  EXPECT_NEAR(total_rest_area(g), area, 1e-9 * area);  // no cloth lost
+  // Both sides of the opening follow the drawn curve: within a quarter of the spacing.
+  std::vector<Vec3> drawn = line.points;
+  drawn.push_back(drawn.front());
+  double worst = 0, sum = 0;
+  std::size_t n = 0;
+  for (const auto& loop : inner_loops(g, 0.6, 0.6))
+    for (Vertex v : loop) {
+      const double d = distance_to_polyline(g.position(v), drawn);
+      worst = std::max(worst, d);
+      sum += d;
+      ++n;
+    }
+  ASSERT_GT(n, 60u);  // both sides of a 66 cm opening at 2 cm
+  EXPECT_LT(worst, 0.25 * spacing);
+  const double angle = smallest_angle(g);
+  EXPECT_GT(angle, 15.0);
+  std::printf("the opening's border from the drawn ellipse: %.3f spacing at most, %.3f on average; smallest angle %.1f degrees\n",
+              worst / spacing, sum / n / spacing, angle);
+}
+
+TEST(CutLine, AStrokeFromBorderToBorderSeparatesThePiecesAlongTheLine) {
+  const double spacing = 0.05;
+  Garment g = make_rectangle_spaced(1.0, 1.0, spacing);
+  const double area = total_rest_area(g);
+  KnifeLine line;
+  // A slanted wavy line, drawn from off the cloth on the left to off the cloth on the right.
+  for (int i = 0; i <= 60; ++i) {
+    const double x = 0.02 + 0.96 * i / 60;
+    line.points.emplace_back(x, 0.37 + 0.2 * x + 0.04 * std::sin(9 * x), 0);
+  }
+  line.start = face_at(g, line.points.front());
+  line.from = Vec3(-0.1, 0.37 - 0.02, 0);
+  line.to = Vec3(1.1, 0.57 + 0.04 * std::sin(9.0) + 0.02, 0);
+  cut_line(g, line);
+  EXPECT_TRUE(g.is_valid());
+  EXPECT_EQ(g.count_pieces(), 2u);
+  EXPECT_NEAR(total_rest_area(g), area, 1e-9 * area);
+  std::vector<Vec3> drawn{*line.from};
+  drawn.insert(drawn.end(), line.points.begin(), line.points.end());
+  drawn.push_back(*line.to);
+  double worst = 0;
+  for (const auto& loop : border_loops(g))
+    for (Vertex v : loop) {
+      const Vec3 p = g.position(v);
+      if (p.x() > 1e-9 && p.x() < 1 - 1e-9 && p.y() > 1e-9 && p.y() < 1 - 1e-9)
+        worst = std::max(worst, distance_to_polyline(p, drawn));
+    }
+  EXPECT_LT(worst, 0.25 * spacing);
+  EXPECT_GT(smallest_angle(g), 15.0);
+}
+
+TEST(CutLine, ALineThatRunsIntoTheClothEndsInASlit) {
+  Garment g = make_rectangle_spaced(1.0, 1.0, 0.05);
+  KnifeLine line;
+  line.points = {Vec3(0.03, 0.52, 0), Vec3(0.25, 0.53, 0), Vec3(0.5, 0.52, 0)};
+  line.start = face_at(g, line.points.front());
+  line.from = Vec3(-0.1, 0.52, 0);
+  const KnifeCut cut = cut_line(g, line);
+  EXPECT_TRUE(g.is_valid());
+  EXPECT_EQ(g.count_pieces(), 1u);
+  const auto loops = border_loops(g);
+  ASSERT_EQ(loops.size(), 1u);
+  EXPECT_GE(cut.opening.size(), 10u);
+  // The slit reaches from the border to about where the line ends.
+  double deepest = 0;
+  for (Vertex v : loops[0]) {
+    const Vec3 p = g.position(v);
+    if (p.x() < 1 - 1e-9 && p.y() > 1e-9 && p.y() < 1 - 1e-9) deepest = std::max(deepest, p.x());
+  }
+  EXPECT_NEAR(deepest, 0.5, 0.05);
+}
+
+TEST(CutLine, ALineOnClothFoldedOverItselfStaysOnItsLayer) {
+  // A rectangle folded in two at y = 0.5: the upper half lies back over the lower, 4 mm above it.
+  Garment g = make_rectangle_spaced(1.0, 1.0, 0.05);
+  for (Vertex v : g.mesh().vertices()) {
+    const Vec3 p = g.position(v);
+    if (p.y() > 0.5) g.set_position(v, Vec3(p.x(), 1.0 - p.y(), 0.004 * (p.y() - 0.5) / 0.5 + 0.004));
+    else if (p.y() == 0.5) g.set_position(v, Vec3(p.x(), 0.5, 0.002));
+  }
+  const Garment before = g;
+  // Drawn from above (+z) on the top layer; the points a pick found alternate between the layers,
+  // as a ray does where the two lie close.
+  KnifeLine line;
+  for (int i = 0; i <= 40; ++i) {
+    const double x = 0.03 + 0.94 * i / 40;
+    line.points.emplace_back(x, 0.27, (i % 3 == 1) ? 0.0 : 0.006);
+  }
+  line.start = face_at(g, Vec3(0.03, 0.27, 0.006));
+  line.from = Vec3(-0.1, 0.27, 0.006);
+  line.to = Vec3(1.1, 0.27, 0.006);
+  const KnifeCut cut = cut_line(g, line);
+  EXPECT_TRUE(g.is_valid());
+  EXPECT_EQ(g.count_pieces(), 2u);  // the top layer cut off across; the bottom layer whole
+  for (const Vec3& p : cut.line) EXPECT_GT(p.z(), 0.004) << "the line went onto the lower layer";
+  // The lower layer's faces are as they were.
+  std::size_t lower_before = 0, lower_after = 0;
+  for (Vertex v : before.mesh().vertices()) lower_before += before.position(v).z() == 0.0;
+  for (Vertex v : g.mesh().vertices()) lower_after += g.position(v).z() == 0.0;
+  EXPECT_EQ(lower_after, lower_before);
+}
+
+TEST(CutLine, TraceFollowsTheLineWithoutCutting) {
+  Garment g = make_rectangle_spaced(0.5, 0.5, 0.05);
+  const auto version = g.topology_version();
+  KnifeLine line;
+  line.points = {Vec3(0.1, 0.12, 0), Vec3(0.4, 0.31, 0)};
+  line.start = face_at(g, line.points.front());
+  const auto traced = trace_line(g, line);
+  EXPECT_GE(traced.size(), 8u);
+  EXPECT_EQ(g.topology_version(), version);
+  for (const Vec3& p : traced) EXPECT_LT(distance_to_polyline(p, line.points), 1e-9);
+}
+
+TEST(CutLine, RefusesBadInputAndChangesNothing) {
+  Garment g = make_rectangle_spaced(0.5, 0.5, 0.05);
+  const auto version = g.topology_version();
+  KnifeLine line;
+  line.points = {Vec3(0.1, 0.1, 0), Vec3(std::nan(""), 0.3, 0)};
+  line.start = face_at(g, line.points.front());
+  EXPECT_THROW(cut_line(g, line), InputError);
+  line.points = {};
+  EXPECT_THROW(cut_line(g, line), InputError);
+  line.points = {Vec3(0.1, 0.1, 0), Vec3(0.3, 0.3, 0)};
+  line.start = Face(99999);
+  EXPECT_THROW(cut_line(g, line), InputError);
+  EXPECT_EQ(g.topology_version(), version);
+}

@@ -4,10 +4,12 @@
 #include "kiji/journal_file.h"
 #include "kiji/pattern.h"
 #include "kiji/session.h"
+#include "kiji/session_file.h"
 
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <sstream>
 
 using namespace kiji;
 
@@ -158,4 +160,35 @@ TEST(JournalFile, BadFilesAreRefusedSayingWhy) {
   EXPECT_THROW(replay(*s, {{"lasso", {}, stroke(Vec3::Zero(), 0)}}), InputError);
   EXPECT_THROW(replay(*s, {{"lift", {{"height", 9.0}}, stroke(Vec3::Zero(), 0)}}), InputError);
   EXPECT_EQ(s->journal().entries().size(), steps) << "nothing replayed when a stroke is bad";
+}
+
+// A journal an earlier build saved (tests/fixtures/saved/journal.json, of the session in
+// session.kiji beside it): its operations are those of the session file, bit for bit, and saved
+// again they make the same file (but for the version of Kiji that wrote it).
+TEST(JournalFile, AJournalSavedByAnEarlierBuildReadsBackAndSavesToTheSameFile) {
+  const std::string dir = KIJI_TEST_SAVED;
+  const JournalFile file = read_journal_file(dir + "/journal.json");
+  ASSERT_EQ(file.version, 2);
+  const std::vector<Operation> from_session = load_session(dir + "/session.kiji");
+  ASSERT_EQ(file.operations.size(), from_session.size());
+  for (std::size_t i = 0; i < from_session.size(); ++i)
+    EXPECT_EQ(encode_operation(file.operations[i]), encode_operation(from_session[i])) << "operation " << i;
+
+  auto text = [](const std::string& path) {
+    std::ifstream in(path);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+  };
+  const std::string saved = text(dir + "/journal.json");
+  const std::string path = std::string(KIJI_TEST_TMP) + "/journal_saved_again.json";
+  save_journal(file.operations, path);
+  std::string again = text(path);
+  // The line that names the Kiji that wrote it, as the earlier file has it.
+  const std::size_t at = again.find("\n \"kiji\": "), end = again.find('\n', at + 1);
+  const std::size_t was = saved.find("\n \"kiji\": "), was_end = saved.find('\n', was + 1);
+  ASSERT_NE(at, std::string::npos);
+  ASSERT_NE(was, std::string::npos);
+  again.replace(at, end - at, saved.substr(was, was_end - was));
+  EXPECT_EQ(again, saved);
 }

@@ -4,10 +4,13 @@
 #include "kiji/operation.h"
 #include "kiji/pattern.h"
 #include "kiji/topology.h"
+#include "support/wire_samples.h"
 
 #include <gtest/gtest.h>
 
+#include <functional>
 #include <random>
+#include <set>
 
 using namespace kiji;
 
@@ -228,4 +231,114 @@ TEST(Operation, DamagedBytesAreRefusedOrReadAsAValidOperationNeverPastTheirEnd) 
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("version 9"), std::string::npos) << e.what();
   }
+}
+
+namespace {
+
+// The message an InputError says (or a failure if there was none).
+std::string refusal(const std::function<void()>& decode) {
+  try {
+    decode();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "(accepted)";
+}
+
+}  // namespace
+
+// Operations of every kind as an earlier build wrote them (tests/fixtures/saved/operations.txt):
+// they decode, encode again to the same bytes, and this build writes them the same.
+TEST(Operation, OperationsSavedByAnEarlierBuildDecodeAndEncodeToTheSameBytes) {
+  const auto saved = test::read_samples("operations.txt");
+  const auto now = test::operation_samples();
+  ASSERT_EQ(saved.size(), 18u);
+  ASSERT_EQ(now.size(), saved.size());
+  std::set<std::string> kinds;
+  for (std::size_t i = 0; i < saved.size(); ++i) {
+    const Operation op = decode_operation(saved[i].bytes);
+    kinds.insert(operation_kind(op.data));
+    EXPECT_EQ(encode_operation(op), saved[i].bytes) << saved[i].name;
+    EXPECT_EQ(now[i].name, saved[i].name);
+    EXPECT_EQ(now[i].bytes, saved[i].bytes) << saved[i].name;
+  }
+  EXPECT_EQ(kinds.size(), std::variant_size_v<OperationData>) << "every kind of operation is saved";
+  const auto& begin = std::get<op::ToolInput>(decode_operation(saved[0].bytes).data);
+  EXPECT_EQ(begin.params.size(), 5u);
+  EXPECT_EQ(begin.event.orientation.coeffs(), Eigen::Quaterniond(0.9, 0.1, -0.3, 0.2).coeffs());
+  for (const auto& s : saved) {
+    for (std::size_t n = 0; n < s.bytes.size(); n += 1 + n / 40)
+      EXPECT_THROW(decode_operation(std::string_view(s.bytes).substr(0, n)), InputError) << s.name << " cut at " << n;
+    EXPECT_THROW(decode_operation(s.bytes + '\0'), InputError) << s.name << " and a byte more";
+  }
+}
+
+TEST(Operation, ValuesOutOfRangeAreRefusedSayingWhat) {
+  const auto saved = test::read_samples("operations.txt");
+  auto named = [&](const std::string& name) {
+    for (const auto& s : saved)
+      if (s.name == name) return s.bytes;
+    throw std::logic_error("no saved operation " + name);
+  };
+  // The header: version (2), step (8), user (4), kind (1).
+  std::string kind = named("undo");
+  kind[14] = 14;
+  EXPECT_EQ(refusal([&] { decode_operation(kind); }), "operation is malformed at byte 15: unknown operation kind");
+  std::string version = named("undo");
+  version[0] = 0;
+  EXPECT_EQ(refusal([&] { decode_operation(version); }),
+            "operation is malformed at byte 2: operation format version 0; this Kiji reads versions 1 to 1: use a newer Kiji");
+  EXPECT_EQ(refusal([&] { decode_operation(named("undo") + "zz"); }),
+            "operation is malformed at byte 15: 2 bytes are left over after the operation");
+
+  // A tool event: the tool id "pinch" (4 + 5), no parameters (4), then the phase.
+  std::string phase = named("tool_move");
+  phase[15 + 9 + 4] = 4;
+  EXPECT_EQ(refusal([&] { decode_operation(phase); }),
+            "operation is malformed at byte 29: the event's phase is not begin, move, end or cancel");
+  Operation nan_time{1, 0, op::ToolInput{"pinch", {}, ToolEvent{}}};
+  std::get<op::ToolInput>(nan_time.data).event.time = NAN;
+  EXPECT_EQ(refusal([&] { decode_operation(encode_operation(nan_time)); }),
+            "operation is malformed at byte 37: the event's time is not a finite number");
+  Operation turned = nan_time;
+  std::get<op::ToolInput>(turned.data).event.time = 0;
+  std::get<op::ToolInput>(turned.data).event.orientation = Eigen::Quaterniond(1, 0, 0, INFINITY);
+  EXPECT_EQ(refusal([&] { decode_operation(encode_operation(turned)); }),
+            "operation is malformed at byte 93: the event's orientation is not a finite number");
+  Operation param{1, 0, op::ToolInput{"pinch", {{"p", 1.0}}, ToolEvent{}}};
+  std::string tag = encode_operation(param);
+  tag[15 + 9 + 4 + 5] = 5;  // the value's type, after the name "p"
+  EXPECT_EQ(refusal([&] { decode_operation(tag); }), "operation is malformed at byte 34: a parameter has an unknown type");
+  std::get<op::ToolInput>(param.data).params = {{"p", NAN}};
+  EXPECT_EQ(refusal([&] { decode_operation(encode_operation(param)); }),
+            "operation is malformed at byte 42: a number parameter is not a finite number");
+  std::get<op::ToolInput>(param.data).params = {{"p", std::string(5000, 'x')}};
+  EXPECT_EQ(refusal([&] { decode_operation(encode_operation(param)); }),
+            "operation is malformed at byte 38: a text parameter is 5000 bytes long, over the limit of 4096");
+  op::ToolInput many{"pinch", {}, ToolEvent{}};
+  for (int i = 0; i < 257; ++i) many.params["p" + std::to_string(i)] = 1LL;
+  EXPECT_EQ(refusal([&] { decode_operation(encode_operation({1, 0, many})); }),
+            "operation is malformed at byte 28: the number of parameters is 257, over the limit of 256");
+
+  // Settings.
+  SolverParams p;
+  p.substeps = 0;
+  EXPECT_EQ(refusal([&] { decode_operation(encode_operation({1, 0, op::SetSolverParams{p}})); }).rfind(
+                "operation is malformed at byte 122: the solver parameters are out of range: ", 0),
+            0u);
+  std::string model = encode_operation({1, 0, op::SetSolverParams{SolverParams{}}});
+  model[15] = 2;
+  EXPECT_EQ(refusal([&] { decode_operation(model); }), "operation is malformed at byte 16: unknown solver model");
+  EXPECT_EQ(refusal([&] { decode_operation(encode_operation({1, 0, op::SetFrameRate{INFINITY}})); }),
+            "operation is malformed at byte 23: the frame rate is not a finite number");
+  std::string simulating = named("set_simulating");
+  simulating[15] = 2;
+  EXPECT_EQ(refusal([&] { decode_operation(simulating); }), "operation is malformed at byte 16: simulating is not 0 or 1");
+  std::string body = named("set_body");
+  body[15] = 3;
+  EXPECT_EQ(refusal([&] { decode_operation(body); }),
+            "operation is malformed at byte 16: whether there is a body is not 0 or 1");
+  std::string garment = named("add_garment");
+  garment[15] = char(0xff);
+  EXPECT_EQ(refusal([&] { decode_operation(garment); }).rfind("operation is malformed at byte 23: the garment says ", 0), 0u);
 }

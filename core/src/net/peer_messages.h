@@ -1,6 +1,7 @@
-// The bodies of the peer protocol's messages and of the operations it orders, in Kiji's binary form
-// (byte_io.h): each decoder checks every length against the bytes there and fixed limits. The
-// envelope around them is peer_wire.h. Internal to the core.
+// The bodies of the peer protocol's messages and of the operations it orders, in Kiji's binary form:
+// each type's fields are described once (peer_messages.cpp, over base/archive.h) and both its
+// encoder and its decoder are that description; each decoder checks every length against the bytes
+// there and fixed limits. The envelope around them is peer_wire.h. Internal to the core.
 #pragma once
 
 #include "base/byte_io.h"
@@ -37,8 +38,6 @@ struct Payload {
   std::uint64_t hash = 0;   // blob
   std::uint32_t size = 0;
 };
-void write_payload(ByteWriter& w, const Payload& p);
-Payload read_payload(ByteReader& r);
 
 struct Heartbeat {
   std::string name;
@@ -121,6 +120,10 @@ struct StateOffer {
 std::string encode(const StateOffer& s);
 StateOffer decode_state_offer(std::string_view body);
 
+// The name of a peer that asks to join.
+struct Join {
+  std::string name;
+};
 std::string encode_name(const std::string& name);
 std::string decode_name(std::string_view body);
 

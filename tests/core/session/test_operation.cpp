@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <functional>
 #include <random>
 #include <set>
@@ -341,4 +342,55 @@ TEST(Operation, ValuesOutOfRangeAreRefusedSayingWhat) {
   std::string garment = named("add_garment");
   garment[15] = char(0xff);
   EXPECT_EQ(refusal([&] { decode_operation(garment); }).rfind("operation is malformed at byte 23: the garment says ", 0), 0u);
+}
+
+TEST(GarmentCodec, ValuesOutOfRangeAreRefusedSayingWhatAndWhere) {
+  Garment small = make_rectangle(0.1, 0.1, 2, 2);
+  small.name = "garment";
+  const std::string bytes = encode_garment(small);
+  auto patched = [&](std::size_t at, auto value) {
+    std::string b = bytes;
+    std::memcpy(&b[at], &value, sizeof value);
+    return b;
+  };
+  // version (2), name (4 + 7), material: name (4 + 6) and 7 numbers, colour (24), pattern scale (8),
+  // texture width and height (8), the number of vertices (4), then 4 vertices of 57 bytes.
+  const std::size_t material = 2 + 11 + 10, scale = material + 56 + 24, texture = scale + 8, vertices = texture + 12;
+  EXPECT_EQ(refusal([&] { decode_garment(patched(0, std::uint16_t(2))); }),
+            "garment data is malformed at byte 2: garment format version 2; this Kiji reads versions 1 to 1: use a newer "
+            "Kiji");
+  EXPECT_EQ(refusal([&] { decode_garment(patched(material, -1.0)); })
+                .rfind("garment data is malformed at byte 79: the material is out of range: ", 0),
+            0u);
+  EXPECT_EQ(refusal([&] { decode_garment(patched(scale, 0.0)); }),
+            "garment data is malformed at byte 111: the pattern scale is not positive");
+  EXPECT_EQ(refusal([&] { decode_garment(patched(texture, std::uint64_t(20000) | std::uint64_t(1) << 32)); }),
+            "garment data is malformed at byte 119: the texture is 20000x1; at most 16384 texels a side");
+  EXPECT_EQ(refusal([&] { decode_garment(patched(vertices + 49, -1.0)); }),
+            "garment data is malformed at byte 180: a vertex has a negative inverse mass");
+  EXPECT_EQ(refusal([&] { decode_garment(patched(vertices + 1, std::nan(""))); }),
+            "garment data is malformed at byte 132: a vertex position is not a finite number");
+  const std::size_t faces = vertices + 4 * 57;
+  EXPECT_EQ(refusal([&] { decode_garment(patched(faces + 4 + 4, std::uint32_t(9))); }),
+            "garment data is malformed at byte 363: face 0 uses a vertex that does not exist");
+  EXPECT_EQ(refusal([&] { decode_garment(bytes + "z"); }),
+            "garment data is malformed at byte " + std::to_string(bytes.size()) +
+                ": 1 bytes are left over after the garment");
+  const std::string no_faces = bytes.substr(0, faces) + std::string(16, '\0');
+  EXPECT_EQ(refusal([&] { decode_garment(no_faces); }), "garment data has no faces: a garment needs at least one triangle");
+}
+
+TEST(BodyCodec, ValuesOutOfRangeAreRefusedSayingWhatAndWhere) {
+  const std::string bytes = encode_body(small_body());
+  // version (2), name "tetra" (4 + 5), three empty texts (12), the up axis.
+  std::string up = bytes;
+  up[23] = 6;
+  EXPECT_EQ(refusal([&] { decode_body(up); }), "body data is malformed at byte 24: unknown up axis");
+  // ... scale (8), two counts (16), the number of vertices and 4 of 24 bytes, the number of triangles.
+  std::string corner = bytes;
+  corner[24 + 8 + 16 + 4 + 96 + 4] = 7;
+  EXPECT_EQ(refusal([&] { decode_body(corner); }),
+            "body data is malformed at byte 156: a body triangle uses a vertex that does not exist");
+  EXPECT_EQ(refusal([&] { decode_body(bytes + "zz"); }),
+            "body data is malformed at byte " + std::to_string(bytes.size()) + ": 2 bytes are left over after the body");
 }

@@ -46,7 +46,7 @@ kiji::ToolInfo read_info(const std::string& library, const std::string& expected
     throw Failure{"its plugin entry is incomplete"};
   if (std::string(entry->interface_id) != KIJI_TOOL_INTERFACE)
     throw Failure{std::string("built for interface ") + entry->interface_id + ", but this Kiji loads " +
-                  KIJI_TOOL_INTERFACE};
+                  KIJI_TOOL_INTERFACE + ": " + kiji::interface_advice(entry->interface_id)};
   if (const std::string diff = kiji::abi_difference(entry->abi_tag, kiji::abi_tag()); !diff.empty())
     throw Failure{std::string("built for ABI ") + entry->abi_tag + ", but this Kiji's is " + kiji::abi_tag() + ": " +
                   diff};

@@ -1,7 +1,6 @@
 // cut: the knife. Along a stroke over the cloth, or, as in the 2006 paper, at one picked vertex
 // that is split in two with its faces shared between the halves.
 #include <kiji/error.h>
-#include <kiji/session.h>
 #include <kiji/tool.h>
 #include <kiji/topology.h>
 
@@ -23,7 +22,7 @@ class CutTool : public Tool {
                                "begins, towards where it goes.")}};
   }
 
-  Feedback begin(Session& session, const ParamSet& params, const ToolEvent& event) override {
+  Feedback begin(ToolContext& context, const ParamSet& params, const ToolEvent& event) override {
     vertex_mode_ = params.get_string("mode") == "vertex";
     points_.clear();
     started_off_cloth_ = !event.hit.hit;
@@ -32,15 +31,15 @@ class CutTool : public Tool {
     return {};
   }
 
-  Feedback update(Session& session, const ToolEvent& event) override {
+  Feedback update(ToolContext& context, const ToolEvent& event) override {
     record(event);
     return {};
   }
 
-  void end(Session& session, const ToolEvent& event) override {
+  void end(ToolContext& context, const ToolEvent& event) override {
     record(event);
     if (points_.empty()) return;  // the stroke never touched the cloth
-    Garment& g = session.garment(garment_);
+    Garment& g = context.garment(garment_);
     if (vertex_mode_) {
       split_picked(g, event.position - first_position_);
     } else {
@@ -50,7 +49,7 @@ class CutTool : public Tool {
     points_.clear();
   }
 
-  void cancel(Session&) override { points_.clear(); }
+  void cancel(ToolContext&) override { points_.clear(); }
 
  private:
   void record(const ToolEvent& e) {

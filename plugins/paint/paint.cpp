@@ -1,7 +1,6 @@
 // paint: the pen as a brush. Colours the garment's texture at the pointer's place on the cloth
 // and pushes back along the cloth's normal while the pen touches it, as in the 2006 paper.
-#include <kiji/haptics.h>
-#include <kiji/session.h>
+#include <kiji/haptic_force.h>
 #include <kiji/tool.h>
 
 #include <algorithm>
@@ -32,49 +31,42 @@ class PaintTool : public Tool {
                              "How hard the cloth pushes back on the pen, per metre the pen goes past the touch distance.")}};
   }
 
-  Feedback begin(Session& session, const ParamSet& params, const ToolEvent& event) override {
+  Feedback begin(ToolContext& context, const ParamSet& params, const ToolEvent& event) override {
     color_ = params.get_color("color");
     radius_ = params.get_float("radius");
     hardness_ = params.get_float("hardness");
     opacity_ = params.get_float("opacity");
     resolution_ = static_cast<int>(params.get_int("resolution"));
-    touch_ = params.get_float("touch_distance");
-    stiffness_ = params.get_float("stiffness");
-    haptic_touch_ = touch_;
-    haptic_stiffness_ = stiffness_;
+    push_.touch = params.get_float("touch_distance");
+    push_.stiffness = params.get_float("stiffness");
+    haptic_touch_ = push_.touch;
+    haptic_stiffness_ = push_.stiffness;
     has_last_ = false;
-    return paint(session, event);
+    return paint(context, event);
   }
 
-  Feedback update(Session& session, const ToolEvent& event) override { return paint(session, event); }
+  Feedback update(ToolContext& context, const ToolEvent& event) override { return paint(context, event); }
 
-  void end(Session& session, const ToolEvent& event) override { paint(session, event); }
+  void end(ToolContext& context, const ToolEvent& event) override { paint(context, event); }
 
-  void cancel(Session&) override { has_last_ = false; }
+  void cancel(ToolContext&) override { has_last_ = false; }
 
-  // On the haptic thread: the cloth's surface near the pen from the last step's snapshot.
+  // On the haptic thread: the same push, from the cloth's surface near the pen in the last step's
+  // snapshot.
   Feedback haptic_force(const HapticSnapshot& snapshot, const ToolEvent& event) const override {
-    return touch_force(event.position, snapshot.nearest(event.position), haptic_touch_.load(),
-                       haptic_stiffness_.load());
-  }
-
- private:
-  // Pushes the pen back out of the cloth, on whichever side it is, along the normal.
-  static Feedback touch_force(const Vec3& pen, const SurfaceHit& hit, double touch, double stiffness) {
+    const HapticPush push{haptic_touch_.load(), haptic_stiffness_.load()};
     Feedback f;
-    if (!hit.hit || hit.distance > touch) return f;
-    Vec3 n = hit.normal;
-    if ((pen - hit.point).dot(n) < 0) n = -n;
-    f.force = stiffness * (touch - hit.distance) * n;
+    f.force = push.force(snapshot.nearest(event.position), event.position);
     return f;
   }
 
-  Feedback paint(Session& session, const ToolEvent& e) {
-    if (!e.hit.hit || e.hit.distance > touch_) {
+ private:
+  Feedback paint(ToolContext& context, const ToolEvent& e) {
+    if (!e.hit.hit || e.hit.distance > push_.touch) {
       has_last_ = false;
       return {};
     }
-    Garment& g = session.garment(e.hit.garment);
+    Garment& g = context.garment(e.hit.garment);
     Texture& t = g.texture();
     if (t.empty()) {
       const auto to8 = [](double x) { return static_cast<std::uint8_t>(std::lround(255 * std::clamp(x, 0.0, 1.0))); };
@@ -90,7 +82,10 @@ class PaintTool : public Tool {
     has_last_ = true;
     last_uv_ = to;
     last_garment_ = e.hit.garment;
-    return touch_force(e.position, e.hit, touch_, stiffness_);
+    // The touch pushes the pen back out of the cloth, on whichever side it is, along the normal.
+    Feedback f;
+    f.force = push_.force(e.hit, e.position);
+    return f;
   }
 
   void stamp(Texture& t, const Vec2& uv, double r_uv, double pressure) {
@@ -115,7 +110,8 @@ class PaintTool : public Tool {
   }
 
   Vec3 color_ = Vec3::Zero();
-  double radius_ = 0.01, hardness_ = 0.8, opacity_ = 1, touch_ = 0.005, stiffness_ = 300;
+  double radius_ = 0.01, hardness_ = 0.8, opacity_ = 1;
+  HapticPush push_;  // touch_distance and stiffness
   int resolution_ = 1024;
   bool has_last_ = false;
   Vec2 last_uv_ = Vec2::Zero();

@@ -1,6 +1,5 @@
 // pin: pins (or unpins) the cloth under a round brush, so that it holds still where it is.
 // Written as any plugin author would write a tool: only Kiji's installed headers.
-#include <kiji/session.h>
 #include <kiji/tool.h>
 
 namespace {
@@ -18,23 +17,23 @@ class PinTool : public Tool {
                              "Vertices within this distance of the brush's point on the cloth are (un)pinned.")}};
   }
 
-  Feedback begin(Session& session, const ParamSet& params, const ToolEvent& event) override {
+  Feedback begin(ToolContext& context, const ParamSet& params, const ToolEvent& event) override {
     pin_ = params.get_string("mode") == "pin";
     radius_ = params.get_float("radius");
-    apply(session, event);
+    apply(context, event);
     return {};
   }
-  Feedback update(Session& session, const ToolEvent& event) override {
-    apply(session, event);
+  Feedback update(ToolContext& context, const ToolEvent& event) override {
+    apply(context, event);
     return {};
   }
-  void end(Session& session, const ToolEvent& event) override { apply(session, event); }
-  void cancel(Session&) override {}
+  void end(ToolContext& context, const ToolEvent& event) override { apply(context, event); }
+  void cancel(ToolContext&) override {}
 
  private:
-  void apply(Session& session, const ToolEvent& e) {
+  void apply(ToolContext& context, const ToolEvent& e) {
     if (!e.hit.hit) return;
-    Garment& g = session.garment(e.hit.garment);
+    Garment& g = context.garment(e.hit.garment);
     const double r2 = radius_ * radius_;
     bool any = false;
     for (Vertex v : g.mesh().vertices()) {

@@ -2,7 +2,6 @@
 // with it, and edges that then coincide become one (mode 'pinch'); or a whole seam at once: the
 // stroke traces one border with the primary button and the other with the secondary (mode 'seam').
 #include <kiji/error.h>
-#include <kiji/session.h>
 #include <kiji/tool.h>
 #include <kiji/topology.h>
 
@@ -26,19 +25,19 @@ class SewTool : public Tool {
                              "A dragged vertex this close to another border vertex is sewn to it.")}};
   }
 
-  Feedback begin(Session& session, const ParamSet& params, const ToolEvent& event) override {
+  Feedback begin(ToolContext& context, const ParamSet& params, const ToolEvent& event) override {
     seam_mode_ = params.get_string("mode") == "seam";
     distance_ = params.get_float("distance");
     side_a_.clear();
     side_b_.clear();
     grabbed_ = Mesh::null_vertex();
     if (seam_mode_) {
-      trace(session, event);
+      trace(context, event);
       return {};
     }
     if (!event.hit.hit) return {};
     garment_ = event.hit.garment;
-    Garment& g = session.garment(garment_);
+    Garment& g = context.garment(garment_);
     grabbed_ = nearest_border(g, event.hit.point, 3 * std::max(distance_, 0.01), Mesh::null_vertex());
     if (grabbed_ == Mesh::null_vertex()) grabbed_ = event.hit.nearest;
     was_pinned_ = g.pinned(grabbed_);
@@ -47,23 +46,23 @@ class SewTool : public Tool {
     return {};
   }
 
-  Feedback update(Session& session, const ToolEvent& event) override {
-    if (seam_mode_) trace(session, event);
-    else drag(session, event);
+  Feedback update(ToolContext& context, const ToolEvent& event) override {
+    if (seam_mode_) trace(context, event);
+    else drag(context, event);
     return {};
   }
 
-  void end(Session& session, const ToolEvent& event) override {
+  void end(ToolContext& context, const ToolEvent& event) override {
     if (seam_mode_) {
-      trace(session, event);
-      sew_seam(session);
+      trace(context, event);
+      sew_seam(context);
     } else {
-      drag(session, event);
-      release(session);
+      drag(context, event);
+      release(context);
     }
   }
 
-  void cancel(Session&) override {
+  void cancel(ToolContext&) override {
     grabbed_ = Mesh::null_vertex();
     side_a_.clear();
     side_b_.clear();
@@ -86,15 +85,15 @@ class SewTool : public Tool {
     return best;
   }
 
-  void release(Session& session) {
+  void release(ToolContext& context) {
     if (grabbed_ == Mesh::null_vertex()) return;
-    session.garment(garment_).set_pinned(grabbed_, was_pinned_);
+    context.garment(garment_).set_pinned(grabbed_, was_pinned_);
     grabbed_ = Mesh::null_vertex();
   }
 
-  void drag(Session& session, const ToolEvent& e) {
+  void drag(ToolContext& context, const ToolEvent& e) {
     if (grabbed_ == Mesh::null_vertex()) return;
-    Garment& g = session.garment(garment_);
+    Garment& g = context.garment(garment_);
     g.set_position(grabbed_, e.position + offset_);
     g.velocity(grabbed_) = Vec3::Zero();
     // The nearest other border vertex within the sewing distance, not already joined to it.
@@ -107,7 +106,7 @@ class SewTool : public Tool {
     }
     if (target == Mesh::null_vertex()) return;
     const Vertex moving = grabbed_;
-    release(session);
+    release(context);
     sew_pair(g, target, moving);
   }
 
@@ -135,11 +134,11 @@ class SewTool : public Tool {
     g.velocity(moving) = Vec3::Zero();
   }
 
-  void trace(Session& session, const ToolEvent& e) {
+  void trace(ToolContext& context, const ToolEvent& e) {
     if (!e.hit.hit) return;
     if (side_a_.empty() && side_b_.empty()) garment_ = e.hit.garment;
     if (e.hit.garment != garment_) return;
-    const Garment& g = session.garment(garment_);
+    const Garment& g = context.garment(garment_);
     const Vertex v = nearest_border(g, e.hit.point, std::numeric_limits<double>::infinity(), Mesh::null_vertex());
     auto& side = (e.buttons & kButtonSecondary) ? side_b_ : side_a_;
     if (v != Mesh::null_vertex() && (side.empty() || side.back() != v)) side.push_back(v);
@@ -160,11 +159,11 @@ class SewTool : public Tool {
     return path;
   }
 
-  void sew_seam(Session& session) {
+  void sew_seam(ToolContext& context) {
     if (side_a_.empty() || side_b_.empty())
       throw InputError("sew: a seam needs both borders traced: the first with the primary button, the "
                        "second with the secondary");
-    Garment& g = session.garment(garment_);
+    Garment& g = context.garment(garment_);
     const auto a = along_border(g, side_a_), b = along_border(g, side_b_);
     stitch(g, a, b);
   }

@@ -2,7 +2,6 @@
 // (the fabric's property: high for rubber-like cloth, low for fragile cloth); an edge pulled past
 // it breaks. Mode 'remove' removes the edge with its two faces (the paper); mode 'split' opens the
 // cloth along the edge instead, so no cloth is lost.
-#include <kiji/session.h>
 #include <kiji/tool.h>
 #include <kiji/topology.h>
 
@@ -25,50 +24,50 @@ class TearTool : public Tool {
                              "Stiffness of the spring between the pointer and the grabbed vertex.")}};
   }
 
-  Feedback begin(Session& session, const ParamSet& params, const ToolEvent& event) override {
+  Feedback begin(ToolContext& context, const ParamSet& params, const ToolEvent& event) override {
     split_ = params.get_string("mode") == "split";
     stiffness_ = params.get_float("stiffness");
     grabbed_ = Mesh::null_vertex();
     if (!event.hit.hit) return {};
     garment_ = event.hit.garment;
     grabbed_ = event.hit.nearest;
-    attachment_ = session.solver(garment_).add_attachment(grabbed_, event.position, stiffness_, /*firm=*/true);
-    return feedback(session, event.position);
+    attachment_ = context.attach(garment_, grabbed_, event.position, stiffness_, /*firm=*/true);
+    return feedback(context, event.position);
   }
 
-  Feedback update(Session& session, const ToolEvent& event) override {
+  Feedback update(ToolContext& context, const ToolEvent& event) override {
     if (grabbed_ == Mesh::null_vertex()) return {};
-    tear_overstretched(session.garment(garment_));
-    const Garment& g = session.garment(garment_);
+    tear_overstretched(context.garment(garment_));
+    const Garment& g = context.garment(garment_);
     if (g.mesh().is_removed(grabbed_)) {  // the grabbed corner tore off with its faces
-      session.solver(garment_).remove_attachment(attachment_);
+      context.release(garment_, attachment_);
       grabbed_ = Mesh::null_vertex();
       return {};
     }
-    session.solver(garment_).move_attachment(attachment_, event.position);
-    return feedback(session, event.position);
+    context.move(garment_, attachment_, event.position);
+    return feedback(context, event.position);
   }
 
-  void end(Session& session, const ToolEvent& event) override {
+  void end(ToolContext& context, const ToolEvent& event) override {
     if (grabbed_ == Mesh::null_vertex()) return;
-    tear_overstretched(session.garment(garment_));
-    release(session);
+    tear_overstretched(context.garment(garment_));
+    release(context);
   }
 
-  void cancel(Session& session) override { release(session); }
+  void cancel(ToolContext& context) override { release(context); }
 
  private:
-  Feedback feedback(const Session& session, const Vec3& pointer) const {
+  Feedback feedback(const ToolContext& context, const Vec3& pointer) const {
     Feedback f;
-    const Garment& g = session.garment(garment_);
+    const Garment& g = context.garment(garment_);
     if (grabbed_ != Mesh::null_vertex() && !g.mesh().is_removed(grabbed_))
       f.force = stiffness_ * (g.position(grabbed_) - pointer);
     return f;
   }
 
-  void release(Session& session) {
-    if (grabbed_ != Mesh::null_vertex() && garment_ < session.garment_count())
-      session.solver(garment_).remove_attachment(attachment_);
+  void release(ToolContext& context) {
+    if (grabbed_ != Mesh::null_vertex() && garment_ < context.garment_count())
+      context.release(garment_, attachment_);
     grabbed_ = Mesh::null_vertex();
   }
 

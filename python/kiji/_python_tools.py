@@ -7,9 +7,10 @@ any other once registered with :func:`register_tool`, or found as an entry point
 replayable, listed by ``kiji.tools()`` (an app builds its palette and panels from the same
 declarations), and replicated to peers that have it registered too.
 
-The session calls the tool's methods with a :class:`kiji.ToolSession`: its garments as views that
-change them in place (the stroke is the operation the journal records) and their solvers with the
-whole API (attachments, forces). Its haptic force, which a haptic device asks for a thousand times
+The session calls the tool's methods with a :class:`kiji.ToolSession` (what a C++ tool gets as its
+``kiji::ToolContext``): its garments as views that change them in place (the stroke is the
+operation the journal records) and their solvers with hands on the cloth (attachments), forces and
+the local region. Its haptic force, which a haptic device asks for a thousand times
 a second, is declared with ``self.haptic`` (a :class:`kiji.ToolHaptics`) as one of the core's force
 models and computed in C++: Python is never called at 1 kHz.
 """

@@ -14,8 +14,17 @@ namespace {
 // A solver as Python sees it. Its own: it steps a garment of its own (not in a session), with the
 // whole API. A session's garment's: read-only from a script (its attachments and forces belong to
 // the tools, whose strokes are the journal's operations; a script's hand on the cloth would change
-// the session outside its journal), and the whole API but stepping for a tool written in Python
-// during its calls, as a C++ tool has it.
+// the session outside its journal), and for a tool written in Python during its calls what its
+// ToolContext allows, as a C++ tool has it: hands on the cloth, forces and the local region.
+
+// Whether two sets of parameters are the same but for the local region (local_radius, local_center).
+bool same_but_local_region(const SolverParams& a, const SolverParams& b) {
+  return a.model == b.model && a.gravity == b.gravity && a.substeps == b.substeps && a.iterations == b.iterations &&
+         a.body_collision == b.body_collision && a.self_collision == b.self_collision &&
+         a.strain_limit == b.strain_limit && a.spring_k == b.spring_k && a.spring_damping == b.spring_damping &&
+         a.sleep_after == b.sleep_after && a.sleep_distance == b.sleep_distance;
+}
+
 class SolverRef {
  public:
   SolverRef(std::shared_ptr<GarmentRef> garment, const SolverParams& params)
@@ -32,14 +41,31 @@ class SolverRef {
     if (scope_) return scope_->get("a solver").solver(index_);
     return session_->solver(index_);
   }
-  // The solver, for a change: refused on a session's solver outside a tool's calls.
-  Solver& write(const char* what) {
-    if (own_) return *own_;
-    if (scope_) return scope_->get("a solver").solver(index_);
+  // The solver of one's own, for a change; nullptr for a tool's, whose changes go through its
+  // context(); refused on a session's solver outside a tool's calls.
+  Solver* write(const char* what) {
+    if (own_) return own_.get();
+    if (scope_) return nullptr;
     throw Error(std::string("Solver.") + what + ": this is the solver of a session's garment, which a script can "
                 "only read: its attachments and forces belong to the tools, whose strokes the journal records "
                 "(a change here would not be undone, replayed or seen by peers). Use a tool (session.pinch, "
                 "or your own with kiji.register_tool), or kiji.Solver(garment) on a garment of your own");
+  }
+  // What a tool written in Python changes the solver through during its calls, as a C++ tool does.
+  ToolContext& context() const { return scope_->get("a solver"); }
+  std::size_t index() const { return index_; }
+  // New parameters: all of them on one's own solver; on a tool's, the local region only (the rest are
+  // the session's, the same for every stroke).
+  void set_params(const SolverParams& p) {
+    if (Solver* solver = write("params")) return solver->set_params(p);
+    ToolContext& c = context();
+    if (!same_but_local_region(p, c.solver(index_).params()))
+      throw InputError("Solver.params: a tool may change only the local region (local_radius, local_center) of a "
+                       "session's solver during its stroke; its other parameters are the session's "
+                       "(session.solver_params, set between strokes)");
+    const SolverParams& session = c.solver_params();
+    if (p.local_radius == session.local_radius && p.local_center == session.local_center) c.end_local_region(index_);
+    else c.set_local_region(index_, p.local_center, p.local_radius);
   }
   std::optional<SessionGuard> guard() const {
     if (!session_) return std::nullopt;
@@ -65,14 +91,17 @@ class SolverRef {
                   "(session.step, session.simulate), or a copy (garment.copy()) for a solver of your own");
   }
   void set_body(std::shared_ptr<Body> body) {
-    if (!own_) write("body");
+    if (!own_) {
+      write("body");
+      throw Error("Solver.body: a session's solvers collide with the session's body");
+    }
     body_ = std::move(body);
     own_->set_body(body_.get());
   }
   std::shared_ptr<Body> body() {
     if (own_) return body_;
-    const Session& s = scope_ ? scope_->get("a solver") : *session_;
-    return s.body() ? std::make_shared<Body>(*s.body()) : nullptr;
+    const Body* b = scope_ ? context().body() : session_->body();
+    return b ? std::make_shared<Body>(*b) : nullptr;
   }
   void step(double dt, int n, const py::object& progress) {
     if (!own_)
@@ -139,7 +168,8 @@ void bind_solver(py::module_& m) {
       "attachments (a hand on the cloth), step, spring_forces, measure. session.solver(i) is the solver of\n"
       "a session's garment: a script reads it (params, last_step, measure, spring_forces); its attachments\n"
       "and forces belong to the tools, so that every change to a session is an operation of its journal.\n"
-      "A tool written in Python gets the whole API on the session's solvers during its calls.");
+      "A tool written in Python gets hands on the session's solvers during its calls: attachments, forces\n"
+      "and the local region (params with another local_radius and local_center), as a C++ tool has them.");
   c.def(py::init([](std::shared_ptr<GarmentRef> g, std::optional<SolverParams> params, std::shared_ptr<Body> body) {
           if (!g) throw py::type_error("Solver: expected a kiji.Garment");
           if (g->in_session())
@@ -158,8 +188,8 @@ void bind_solver(py::module_& m) {
         auto lock = s.guard();
         return s.read().params();
       },
-      [](SolverRef& s, const SolverParams& p) { s.write("params").set_params(p); },
-      "The solver's parameters (a copy; assign to change them: a solver of your own, or a tool's).");
+      [](SolverRef& s, const SolverParams& p) { s.set_params(p); },
+      "The solver's parameters (a copy; assign to change them: a solver of your own; a tool's local region).");
   c.def_property(
       "body", [](SolverRef& s) {
         auto lock = s.guard();
@@ -170,29 +200,40 @@ void bind_solver(py::module_& m) {
   c.def_property_readonly("garment", [](SolverRef& s) { return s.garment_ref(); }, "The garment this solver steps.");
   c.def_property_readonly("owned", &SolverRef::own, "Whether this is a solver of your own (kiji.Solver(garment)).");
   c.def_property_readonly("writable", &SolverRef::writable,
-                          "Whether forces, attachments and parameters can be changed here (your own solver, or a "
-                          "tool's during its calls).");
+                          "Whether forces and attachments can be changed here (your own solver, or a tool's during "
+                          "its calls).");
   c.def("add_external_force", [](SolverRef& s, py::handle vertices, py::handle forces) {
-    Solver& solver = s.write("add_external_force");
+    Solver* solver = s.write("add_external_force");
     const auto vs = vertex_rows(s.garment(), vertices, "add_external_force");
     auto f = py::module_::import("numpy").attr("asarray")(forces);
     auto a = real_array(f.attr("reshape")(-1, 3), "forces", static_cast<long>(vs.size()), 3);
-    for (std::size_t i = 0; i < vs.size(); ++i) solver.add_external_force(vs[i], Vec3(a.at(i, 0), a.at(i, 1), a.at(i, 2)));
+    for (std::size_t i = 0; i < vs.size(); ++i) {
+      const Vec3 force(a.at(i, 0), a.at(i, 1), a.at(i, 2));
+      if (solver) solver->add_external_force(vs[i], force);
+      else s.context().add_force(s.index(), vs[i], force);
+    }
   }, py::arg("vertices"), py::arg("forces"),
      "Forces in newtons on vertices (a row and a (3,) force, or (K,) rows and (K, 3) forces) for the\n"
      "next step only (the paper's f_i of eq. 2).");
   c.def("add_attachment", [](SolverRef& s, long vertex, py::handle target, double stiffness, bool firm) {
-    Solver& solver = s.write("add_attachment");
+    Solver* solver = s.write("add_attachment");
     const auto v = vertex_rows(s.garment(), py::int_(vertex), "add_attachment");
-    return solver.add_attachment(v[0], to_vec3(target, "target"), stiffness, firm);
+    const Vec3 at = to_vec3(target, "target");
+    return solver ? solver->add_attachment(v[0], at, stiffness, firm) : s.context().attach(s.index(), v[0], at, stiffness, firm);
   }, py::arg("vertex"), py::arg("target"), py::arg("stiffness"), py::arg("firm") = false,
      "A hand on the cloth: a zero-length spring of `stiffness` N/m from the point `target` to a vertex\n"
      "(a row), kept until removed; returns its id. A firm one wins over the cloth's strain limit (it can\n"
      "stretch the cloth until it tears). Dropped when an edit removes its vertex.");
   c.def("move_attachment", [](SolverRef& s, int id, py::handle target) {
-    s.write("move_attachment").move_attachment(id, to_vec3(target, "target"));
+    Solver* solver = s.write("move_attachment");
+    const Vec3 at = to_vec3(target, "target");
+    if (solver) solver->move_attachment(id, at);
+    else s.context().move(s.index(), id, at);
   }, py::arg("id"), py::arg("target"), "Moves an attachment's point (an id no longer held is ignored).");
-  c.def("remove_attachment", [](SolverRef& s, int id) { s.write("remove_attachment").remove_attachment(id); },
+  c.def("remove_attachment", [](SolverRef& s, int id) {
+    if (Solver* solver = s.write("remove_attachment")) solver->remove_attachment(id);
+    else s.context().release(s.index(), id);
+  },
         py::arg("id"), "Removes an attachment (an id no longer held is ignored).");
   c.def_property_readonly("attachment_count", [](SolverRef& s) {
     auto lock = s.guard();
@@ -200,7 +241,7 @@ void bind_solver(py::module_& m) {
   }, "Attachments held (hands on the cloth).");
   c.def("prepare", [](SolverRef& s) {
     auto lock = s.guard();
-    Solver& solver = s.own() ? s.write("prepare") : const_cast<Solver&>(s.read());
+    Solver& solver = s.own() ? *s.write("prepare") : const_cast<Solver&>(s.read());
     const Garment& g = s.garment();
     py::gil_scoped_release nogil;
     solver.prepare(g);

@@ -12,7 +12,7 @@ namespace {
 
 std::string label_or(const std::string& label, const std::string& name) { return label.empty() ? name : label; }
 
-Session& scope_session(const ToolSessionHandle& h) { return h.scope->get("the session"); }
+ToolContext& scope_context(const ToolSessionHandle& h) { return h.scope->get("the session"); }
 
 // A session's tool instance, with the session kept alive.
 struct ToolInstance {
@@ -110,38 +110,39 @@ void bind_tools(py::module_& m) {
 
   // --- what a tool written in Python works with ---
   py::class_<ToolSessionHandle>(m, "ToolSession",
-      "The session as a tool written in Python sees it during begin, update, end and cancel: its garments\n"
-      "(views that change them in place: the stroke is the operation that the journal records), their\n"
-      "solvers (the whole API: attachments, forces, parameters), the body, the clock and picking. It\n"
-      "refuses to be used outside the tool's calls, and offers no other operation (adding garments,\n"
-      "undo, settings), which a stroke cannot contain.")
+      "The session as a tool written in Python sees it during begin, update, end and cancel (the C++\n"
+      "tools' kiji::ToolContext): its garments (views that change them in place: the stroke is the\n"
+      "operation that the journal records), their solvers (hands on the cloth, forces, the local region),\n"
+      "the body, the clock and picking. It refuses to be used outside the tool's calls, and offers no\n"
+      "other operation (adding garments, undo, settings), which a stroke cannot contain.")
       .def("garment", [](const ToolSessionHandle& h, std::size_t i) {
-        check_garment_index(scope_session(h), i);
+        scope_context(h).garment(i);  // an index out of range is an InputError naming the garments there are
         return std::make_shared<GarmentRef>(h.scope, i);
       }, py::arg("index") = 0, "The garment at an index, as a view that edits it in place.")
       .def_property_readonly("garments", [](const ToolSessionHandle& h) {
         py::list out;
-        for (std::size_t i = 0; i < scope_session(h).garment_count(); ++i) out.append(std::make_shared<GarmentRef>(h.scope, i));
+        for (std::size_t i = 0; i < scope_context(h).garment_count(); ++i) out.append(std::make_shared<GarmentRef>(h.scope, i));
         return out;
       })
-      .def_property_readonly("garment_count", [](const ToolSessionHandle& h) { return scope_session(h).garment_count(); })
+      .def_property_readonly("garment_count", [](const ToolSessionHandle& h) { return scope_context(h).garment_count(); })
       .def("solver", [](const ToolSessionHandle& h, std::size_t i) {
-        check_garment_index(scope_session(h), i);
+        scope_context(h).garment(i);
         return tool_solver(h.scope, i);
-      }, py::arg("garment") = 0, "The solver of a garment: attachments, forces and parameters for this stroke.")
+      }, py::arg("garment") = 0,
+         "The solver of a garment: hands on the cloth, forces and the local region for this stroke.")
       .def_property_readonly("body", [](const ToolSessionHandle& h) -> std::shared_ptr<Body> {
-        const Session& s = scope_session(h);
-        return s.body() ? std::make_shared<Body>(*s.body()) : nullptr;
+        const ToolContext& c = scope_context(h);
+        return c.body() ? std::make_shared<Body>(*c.body()) : nullptr;
       })
-      .def_property_readonly("time", [](const ToolSessionHandle& h) { return scope_session(h).time(); })
-      .def_property_readonly("steps", [](const ToolSessionHandle& h) { return scope_session(h).steps(); })
-      .def_property_readonly("frame_rate", [](const ToolSessionHandle& h) { return scope_session(h).frame_rate(); })
-      .def_property_readonly("solver_params", [](const ToolSessionHandle& h) { return scope_session(h).solver_params(); })
-      .def_property_readonly("pick_radius", [](const ToolSessionHandle& h) { return scope_session(h).pick_radius(); })
+      .def_property_readonly("time", [](const ToolSessionHandle& h) { return scope_context(h).time(); })
+      .def_property_readonly("steps", [](const ToolSessionHandle& h) { return scope_context(h).steps(); })
+      .def_property_readonly("frame_rate", [](const ToolSessionHandle& h) { return scope_context(h).frame_rate(); })
+      .def_property_readonly("solver_params", [](const ToolSessionHandle& h) { return scope_context(h).solver_params(); })
+      .def_property_readonly("pick_radius", [](const ToolSessionHandle& h) { return scope_context(h).pick_radius(); })
       .def("pick", [](const ToolSessionHandle& h, py::handle position, py::handle ray) {
         const Vec3 p = to_vec3(position, "position");
         const Vec3 r = ray.is_none() ? Vec3::Zero() : to_vec3(ray, "ray");
-        return scope_session(h).pick(p, r);
+        return scope_context(h).pick(p, r);
       }, py::arg("position"), py::arg("ray") = py::none(), "The cloth under a pointer, as Session.pick.")
       .def_property_readonly("active", [](const ToolSessionHandle& h) { return h.scope->active(); },
                              "Whether the tool's call is in progress (the only time this can be used).")
@@ -157,7 +158,7 @@ void bind_tools(py::module_& m) {
       "spring() to the cloth it grabbed (as pinch), push() out of the cloth along its normal (as paint),\n"
       "or clear() for none (the default). A spring is let go at the end of the stroke.")
       .def("spring", [](HapticDeclaration& d, py::handle vertices, double stiffness, std::optional<std::size_t> garment) {
-        Session& s = d.scope()->get("tool.haptic.spring()");
+        const ToolContext& s = d.scope()->get("tool.haptic.spring()");
         const ToolEvent& e = d.scope()->event;
         const std::size_t gi = garment ? *garment : e.hit.garment;
         const Garment& g = s.garment(gi);

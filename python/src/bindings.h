@@ -34,16 +34,16 @@ class SessionGuard {
   std::unique_lock<std::recursive_mutex> lock_;
 };
 
-// The session a tool written in Python is working on, while one of its calls (begin, update, end,
-// cancel) runs: views made through it change the session's garments in place, as a C++ tool does
-// (the stroke is the operation), and are refused outside the tool's calls, when a change in place
-// would escape the journal.
+// What a tool written in Python is working on, while one of its calls (begin, update, end, cancel)
+// runs: the ToolContext the session gave the call, as a C++ tool has it. Views made through it
+// change the session's garments in place (the stroke is the operation), and are refused outside the
+// tool's calls, when a change in place would escape the journal.
 struct ToolScope {
-  Session* session = nullptr;  // null once the tool is gone
-  int depth = 0;               // calls of the tool in progress on the applying thread
-  ToolEvent event;             // the event of the call in progress
-  bool active() const { return session != nullptr && depth > 0; }
-  Session& get(const char* what) const;  // throws kiji.Error outside the tool's calls
+  ToolContext* context = nullptr;  // the call's; null outside the tool's calls
+  int depth = 0;                   // calls of the tool in progress on the applying thread
+  ToolEvent event;                 // the event of the call in progress
+  bool active() const { return context != nullptr && depth > 0; }
+  ToolContext& get(const char* what) const;  // throws kiji.Error outside the tool's calls
 };
 
 // A garment as Python sees it: either its own (made by a pattern function or loaded from a file), or

@@ -249,12 +249,12 @@ ToolEvent event_arg(py::handle event, Phase phase, double default_time) {
   return e;
 }
 
-Session& ToolScope::get(const char* what) const {
+ToolContext& ToolScope::get(const char* what) const {
   if (!active())
     throw Error(std::string(what) + " given to a tool written in Python is used outside the tool's begin, update, "
                 "end or cancel: a tool changes the session only while the session calls it (the stroke is the "
                 "operation); take the garment again from the session passed to the call");
-  return *session;
+  return *context;
 }
 
 void PyHandle::Drop::operator()(py::object* obj) const {

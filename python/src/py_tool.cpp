@@ -49,18 +49,23 @@ PythonTool::PythonTool(const py::object& cls) {
   instance_ = PyHandle(std::move(instance));
 }
 
-PythonTool::~PythonTool() { scope_->session = nullptr; }
+PythonTool::~PythonTool() { scope_->context = nullptr; }
 
-Feedback PythonTool::call(Session& session, const ToolEvent* event, const char* method,
+Feedback PythonTool::call(ToolContext& context, const ToolEvent* event, const char* method,
                           const std::function<py::object()>& fn) {
   py::gil_scoped_acquire gil;
-  scope_->session = &session;
-  if (event) scope_->event = *event;
-  ++scope_->depth;
+  // The context lives for this call only: the one before it comes back when the call returns.
   struct Leave {
     ToolScope& scope;
-    ~Leave() { --scope.depth; }
-  } leave{*scope_};
+    ToolContext* before;
+    ~Leave() {
+      --scope.depth;
+      scope.context = before;
+    }
+  } leave{*scope_, scope_->context};
+  scope_->context = &context;
+  if (event) scope_->event = *event;
+  ++scope_->depth;
   return feedback_from(fn(), info_.id + "." + method + "()");
 }
 
@@ -68,18 +73,18 @@ namespace {
 py::object tool_session(const std::shared_ptr<ToolScope>& scope) { return py::cast(ToolSessionHandle{scope}); }
 }  // namespace
 
-Feedback PythonTool::begin(Session& session, const ParamSet& params, const ToolEvent& event) {
-  return call(session, &event, "begin", [&] {
+Feedback PythonTool::begin(ToolContext& context, const ParamSet& params, const ToolEvent& event) {
+  return call(context, &event, "begin", [&] {
     return instance().attr("begin")(tool_session(scope_), param_map_to_python(params.values()), event);
   });
 }
 
-Feedback PythonTool::update(Session& session, const ToolEvent& event) {
-  return call(session, &event, "update", [&] { return instance().attr("update")(tool_session(scope_), event); });
+Feedback PythonTool::update(ToolContext& context, const ToolEvent& event) {
+  return call(context, &event, "update", [&] { return instance().attr("update")(tool_session(scope_), event); });
 }
 
-void PythonTool::end(Session& session, const ToolEvent& event) {
-  call(session, &event, "end", [&] {
+void PythonTool::end(ToolContext& context, const ToolEvent& event) {
+  call(context, &event, "end", [&] {
     instance().attr("end")(tool_session(scope_), event);
     return py::object(py::none());
   });
@@ -87,9 +92,9 @@ void PythonTool::end(Session& session, const ToolEvent& event) {
   if (std::holds_alternative<HapticSpring>(*haptic_->model())) haptic_->set(std::monostate{});
 }
 
-void PythonTool::cancel(Session& session) {
+void PythonTool::cancel(ToolContext& context) {
   if (std::holds_alternative<HapticSpring>(*haptic_->model())) haptic_->set(std::monostate{});
-  call(session, nullptr, "cancel", [&] {
+  call(context, nullptr, "cancel", [&] {
     instance().attr("cancel")(tool_session(scope_));
     return py::object(py::none());
   });

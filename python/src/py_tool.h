@@ -6,7 +6,7 @@
 
 #include "bindings.h"
 
-#include "kiji/haptics.h"
+#include "kiji/haptic_force.h"
 #include "kiji/tool.h"
 
 #include <memory>
@@ -28,7 +28,8 @@ class HapticDeclaration {
   std::shared_ptr<const HapticModel> model_ = std::make_shared<const HapticModel>();
 };
 
-// The session as a tool written in Python sees it during its calls (kiji.ToolSession).
+// The session as a tool written in Python sees it during its calls (kiji.ToolSession): the
+// ToolContext of the call in progress.
 struct ToolSessionHandle {
   std::shared_ptr<ToolScope> scope;
 };
@@ -40,10 +41,10 @@ class PythonTool : public Tool {
   ~PythonTool() override;
 
   ToolInfo info() const override { return info_; }
-  Feedback begin(Session& session, const ParamSet& params, const ToolEvent& event) override;
-  Feedback update(Session& session, const ToolEvent& event) override;
-  void end(Session& session, const ToolEvent& event) override;
-  void cancel(Session& session) override;
+  Feedback begin(ToolContext& context, const ParamSet& params, const ToolEvent& event) override;
+  Feedback update(ToolContext& context, const ToolEvent& event) override;
+  void end(ToolContext& context, const ToolEvent& event) override;
+  void cancel(ToolContext& context) override;
   Feedback haptic_force(const HapticSnapshot& snapshot, const ToolEvent& event) const override;
 
   const py::object& instance() const { return instance_.get(); }
@@ -51,7 +52,7 @@ class PythonTool : public Tool {
  private:
   // Calls a method of the instance with the GIL and the scope held; converts what begin and update
   // return (None, a Feedback, or a force (3,)).
-  Feedback call(Session& session, const ToolEvent* event, const char* method, const std::function<py::object()>& fn);
+  Feedback call(ToolContext& context, const ToolEvent* event, const char* method, const std::function<py::object()>& fn);
 
   PyHandle instance_;
   ToolInfo info_;

@@ -227,6 +227,49 @@ def test_a_python_tool_holds_the_cloth_with_the_solvers_attachments_and_declares
         kiji.unregister_tool("grab")
 
 
+class Region(kiji.Tool):
+    """Lets only the cloth near the pen move while its stroke lasts (the paper's local region), through
+    the solver's parameters; greedy, it asks for more substeps as well, which a tool may not."""
+
+    def info(self):
+        return kiji.ToolInfo("region", "Region", "Moves only the cloth near the pen during the stroke.",
+                             [kiji.ParamSpec.boolean("greedy", False)])
+
+    def begin(self, session, params, event):
+        solver = session.solver(0)
+        p = solver.params
+        p.local_radius, p.local_center = 0.1, event.position
+        if params["greedy"]:
+            p.substeps = 2 * p.substeps
+        solver.params = p
+
+    def end(self, session, event):
+        solver = session.solver(0)
+        p = solver.params
+        p.local_radius, p.local_center = session.solver_params.local_radius, session.solver_params.local_center
+        solver.params = p
+
+    def cancel(self, session):
+        self.end(session, None)
+
+
+def test_a_python_tool_sets_the_solvers_local_region_and_nothing_else_of_its_parameters():
+    kiji.register_tool(Region)
+    try:
+        s, g = flat_session(1, 1, 11, 11)
+        s.begin("region", (0.5, 0.5, 0.0))
+        p = s.solver(0).params
+        assert p.local_radius == 0.1 and np.allclose(p.local_center, (0.5, 0.5, 0.0))
+        s.end((0.5, 0.5, 0.0))
+        assert s.solver(0).params.local_radius == 0.0  # the session's own region again
+        with pytest.raises(kiji.InputError, match="a tool may change only the local region"):
+            s.region([(0.5, 0.5, 0.0)], greedy=True)
+        assert s.solver(0).params.substeps == s.solver_params.substeps
+        assert not s.stroke_active
+    finally:
+        kiji.unregister_tool("region")
+
+
 def test_a_tool_is_registered_once_checked_and_can_be_replaced_or_removed():
     with pytest.raises(TypeError, match="expected a class"):
         kiji.register_tool(SmoothTool())

@@ -4,10 +4,12 @@
 // another thread.
 //
 // The loop never touches the session: the simulation publishes a HapticSnapshot after each step
-// (publish), and the loop reads the latest one without locking (an atomic shared pointer).
+// (publish), and the loop reads the latest one without locking (an atomic shared pointer). The
+// snapshot and the force models tools share with the loop are in kiji/haptic_force.h.
 #pragma once
 
 #include "kiji/error.h"
+#include "kiji/haptic_force.h"
 #include "kiji/tool.h"
 #include "kiji/tool_event.h"
 
@@ -20,49 +22,11 @@
 #include <mutex>
 #include <string>
 #include <thread>
-#include <variant>
 #include <vector>
 
 namespace kiji {
 
 class Session;
-
-// The cloth near the pointer, as it was after a simulation step.
-struct HapticSnapshot {
-  double time = 0;
-  std::size_t garment = 0;
-  Vec3 center{0, 0, 0};
-  double radius = 0;
-  std::vector<Vertex> vertices;             // the vertices within radius of center, in index order
-  std::vector<Vec3> positions;              // their positions
-  std::vector<std::array<int, 3>> triangles;  // faces whose three vertices are all in, as local indices
-
-  // Where `v` was, or nullptr if it is not in the snapshot (a binary search of `vertices`).
-  const Vec3* position_of(Vertex v) const;
-  // The snapshot's cloth surface point nearest p (hit = false if the snapshot has no triangle).
-  SurfaceHit nearest(const Vec3& p) const;
-};
-
-// Force models the haptic loop computes by itself from a snapshot: what a tool declares when its own
-// code cannot answer a thousand times a second (a tool written in Python).
-// The grabbed cloth pulls the hand, as pinch's spring does: the sum over the grabbed vertices of
-// (stiffness / n) (x_v - offset_v - pointer), each vertex held at the offset from the pointer at
-// which it was taken. Vertices the snapshot does not hold add nothing.
-struct HapticSpring {
-  std::size_t garment = 0;
-  std::vector<Vertex> vertices;  // sorted
-  std::vector<Vec3> offsets;     // vertex - pointer when taken, one a vertex
-  double stiffness = 0;          // N/m in all, shared among the vertices
-};
-// The cloth pushes the pen back out along its normal, as paint's touch does: stiffness (touch - d) n
-// when the pen is within `touch` metres of the snapshot's surface, on whichever side it is.
-struct HapticPush {
-  double touch = 0.005;     // m
-  double stiffness = 300;   // N/m
-};
-using HapticModel = std::variant<std::monostate, HapticSpring, HapticPush>;
-// The model's force for a pointer; none for std::monostate.
-Feedback haptic_model_force(const HapticModel& model, const HapticSnapshot& snapshot, const ToolEvent& event);
 
 // Takes the snapshot of garment `g` of the session around `center`.
 HapticSnapshot take_snapshot(const Session& session, std::size_t garment, const Vec3& center, double radius);

@@ -76,6 +76,10 @@ class ToolRegistry {
 // name that is not a Python identifier, no label, a parameter declared twice, a default out of range.
 void check_tool_info(const ToolInfo& info);
 
+// What to do about a plugin built for another tool interface than KIJI_TOOL_INTERFACE: what changed
+// since the plugin's version, and to rebuild it against this Kiji.
+std::string interface_advice(const std::string& plugin_interface);
+
 // Metadata of a plugin library as JSON (what `kiji_add_tool` writes beside each library).
 std::string tool_metadata_json(const ToolInfo& info, const std::string& library_file);
 

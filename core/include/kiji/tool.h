@@ -2,14 +2,16 @@
 //
 // A tool sees only device-agnostic ToolEvents and answers with Feedback. Interactive use calls
 // begin / update / end / cancel as the user moves; scripts, tests, replay and peers call run(),
-// which feeds a recorded stroke through the very same calls. Parameters are declared once in
-// info() and reach the command line, Python and the app's panels from there.
+// which feeds a recorded stroke through the very same calls. Each call gets a ToolContext: what a
+// stroke may do (kiji/tool_context.h). Parameters are declared once in info() and reach the command
+// line, Python and the app's panels from there.
 //
 // A plugin is a MODULE library that defines a Tool subclass and names it with KIJI_TOOL_PLUGIN;
 // `kiji_add_tool()` in CMake builds it and writes the JSON metadata the host reads before loading.
 #pragma once
 
 #include "kiji/params.h"
+#include "kiji/tool_context.h"
 #include "kiji/tool_event.h"
 #include "kiji/version.h"
 
@@ -20,7 +22,7 @@
 #include <vector>
 
 // The interface id and its version: a host loads only plugins of the version it implements.
-#define KIJI_TOOL_INTERFACE "org.kiji.Tool/1"
+#define KIJI_TOOL_INTERFACE "org.kiji.Tool/2"
 
 namespace kiji {
 
@@ -41,20 +43,20 @@ class Tool {
   virtual ToolInfo info() const = 0;
 
   // The stroke starts: the user pressed the button (phase Begin). `params` are checked values
-  // for every declared parameter, fixed for the whole stroke.
-  virtual Feedback begin(Session& session, const ParamSet& params, const ToolEvent& event) = 0;
+  // for every declared parameter, fixed for the whole stroke. `context` is valid for the call only.
+  virtual Feedback begin(ToolContext& context, const ParamSet& params, const ToolEvent& event) = 0;
   // The pointer moved with the button held (phase Move).
-  virtual Feedback update(Session& session, const ToolEvent& event) = 0;
-  // The button was released (phase End): finish the edit.
-  virtual void end(Session& session, const ToolEvent& event) = 0;
+  virtual Feedback update(ToolContext& context, const ToolEvent& event) = 0;
+  // The button was released (phase End): finish the edit, and let go of what the tool holds.
+  virtual void end(ToolContext& context, const ToolEvent& event) = 0;
   // The stroke was abandoned (phase Cancel): leave nothing half-done. The session restores the
-  // garments as they were before the stroke; release any state the tool holds.
-  virtual void cancel(Session& session) = 0;
+  // garments as they were before the stroke; release the hands and the local region the tool holds.
+  virtual void cancel(ToolContext& context) = 0;
 
   // The force on the user's hand for a pointer position between solver steps, asked by the 1 kHz
   // haptic loop on its own thread. It may read only the snapshot (the cloth near the pointer after
   // the last step), the event and the tool's own stroke settings, and must return in microseconds.
-  // The default is no force.
+  // The default is no force. kiji/haptic_force.h has the snapshot and the force models to use.
   virtual Feedback haptic_force(const HapticSnapshot& snapshot, const ToolEvent& event) const { return {}; }
 
   // Feeds a recorded stroke through begin / update / end / cancel, through the session (which
@@ -91,6 +93,8 @@ static inline const char* write_abi_tag(char* out, std::size_t capacity, const c
 
 }  // namespace kiji
 
+// The entry point keeps its name and layout across interface versions, so that a host can read the
+// interface id of a plugin built for any of them and say why it refuses it.
 #define KIJI_TOOL_PLUGIN_SYMBOL "kiji_tool_plugin_v1"
 
 // Exports the factory of ToolClass from a plugin library, with the ABI tag as this plugin's

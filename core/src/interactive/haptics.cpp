@@ -1,6 +1,5 @@
 #include "kiji/haptics.h"
 
-#include "base/geometry.h"
 #include "base/forced_unwind.h"
 #include "kiji/session.h"
 
@@ -16,51 +15,6 @@
 #include <unordered_map>
 
 namespace kiji {
-
-const Vec3* HapticSnapshot::position_of(Vertex v) const {
-  const auto it = std::lower_bound(vertices.begin(), vertices.end(), v);
-  if (it == vertices.end() || *it != v) return nullptr;
-  return &positions[static_cast<std::size_t>(it - vertices.begin())];
-}
-
-SurfaceHit HapticSnapshot::nearest(const Vec3& p) const {
-  SurfaceHit best;
-  for (const auto& t : triangles) {
-    const Vec3 &a = positions[t[0]], &b = positions[t[1]], &c = positions[t[2]];
-    const geom::ClosestPoint cp = geom::closest_on_triangle(p, a, b, c);
-    const double d = (cp.point - p).norm();
-    if (d >= best.distance) continue;
-    best.hit = true;
-    best.garment = garment;
-    best.point = cp.point;
-    best.distance = d;
-    best.barycentric = Vec3(cp.b0, cp.b1, cp.b2);
-    const Vec3 n = (b - a).cross(c - a);
-    best.normal = n.norm() > 0 ? Vec3(n.normalized()) : Vec3(0, 1, 0);
-    int k = 0;
-    best.barycentric.maxCoeff(&k);
-    best.nearest = vertices[t[k]];
-  }
-  return best;
-}
-
-Feedback haptic_model_force(const HapticModel& model, const HapticSnapshot& snapshot, const ToolEvent& event) {
-  Feedback f;
-  if (const auto* spring = std::get_if<HapticSpring>(&model)) {
-    if (spring->vertices.empty() || snapshot.garment != spring->garment) return f;
-    const double k = spring->stiffness / double(spring->vertices.size());
-    for (std::size_t i = 0; i < spring->vertices.size(); ++i)
-      if (const Vec3* x = snapshot.position_of(spring->vertices[i]))
-        f.force += k * (*x - spring->offsets[i] - event.position);
-  } else if (const auto* push = std::get_if<HapticPush>(&model)) {
-    const SurfaceHit hit = snapshot.nearest(event.position);
-    if (!hit.hit || hit.distance > push->touch) return f;
-    Vec3 n = hit.normal;
-    if ((event.position - hit.point).dot(n) < 0) n = -n;
-    f.force = push->stiffness * (push->touch - hit.distance) * n;
-  }
-  return f;
-}
 
 HapticSnapshot take_snapshot(const Session& session, std::size_t garment, const Vec3& center, double radius) {
   HapticSnapshot s;

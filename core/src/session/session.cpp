@@ -5,6 +5,7 @@
 #include "kiji/pick.h"
 
 #include "base/byte_io.h"
+#include "session/stroke_context.h"
 
 #include <cmath>
 #include <sstream>
@@ -262,11 +263,12 @@ Feedback Session::do_tool(Tool& tool, const op::ToolInput& input, const ParamSet
   event.hit = pick(event.position, event.ray);
   Operation logged{steps_, user, input};
 
+  StrokeContext context(*this);
   if (event.phase == Phase::Cancel) {
     auto stroke = std::move(it->second);
     active_.erase(it);
     try {
-      tool.cancel(*this);
+      tool.cancel(context);
     } catch (...) {  // the garments go back all the same
     }
     restore(stroke->entry.before);
@@ -290,9 +292,9 @@ Feedback Session::do_tool(Tool& tool, const op::ToolInput& input, const ParamSet
   last_tool_error_.clear();
   try {
     switch (event.phase) {
-      case Phase::Begin: feedback = tool.begin(*this, active.params, event); break;
-      case Phase::Move: feedback = tool.update(*this, event); break;
-      case Phase::End: tool.end(*this, event); break;
+      case Phase::Begin: feedback = tool.begin(context, active.params, event); break;
+      case Phase::Move: feedback = tool.update(context, event); break;
+      case Phase::End: tool.end(context, event); break;
       case Phase::Cancel: break;
     }
   } catch (...) {
@@ -301,7 +303,7 @@ Feedback Session::do_tool(Tool& tool, const op::ToolInput& input, const ParamSet
     auto stroke = std::move(it->second);
     active_.erase(it);
     try {
-      tool.cancel(*this);
+      tool.cancel(context);
     } catch (...) {
     }
     restore(stroke->entry.before);
@@ -528,9 +530,10 @@ void Session::load_state(std::string_view state) {
   if (!(frame_rate >= 1 && frame_rate <= 10000) || !(pick_radius > 0 && pick_radius <= 10))
     throw InputError("session state: a setting is out of range");
   // Strokes in progress end (their tools let go of what they hold), and the tools start afresh.
+  StrokeContext context(*this);
   for (auto& [user, stroke] : active_) {
     try {
-      stroke->tool->cancel(*this);
+      stroke->tool->cancel(context);
     } catch (...) {
     }
   }

@@ -73,17 +73,17 @@ class ToolRegistry::PluginTool final : public Tool {
   ~PluginTool() override { destroy_tool(*library_->entry, tool_); }
 
   ToolInfo info() const override { return info_; }
-  Feedback begin(Session& session, const ParamSet& params, const ToolEvent& event) override {
-    return guarded("begin", [&] { return tool_->begin(session, params, event); });
+  Feedback begin(ToolContext& context, const ParamSet& params, const ToolEvent& event) override {
+    return guarded("begin", [&] { return tool_->begin(context, params, event); });
   }
-  Feedback update(Session& session, const ToolEvent& event) override {
-    return guarded("update", [&] { return tool_->update(session, event); });
+  Feedback update(ToolContext& context, const ToolEvent& event) override {
+    return guarded("update", [&] { return tool_->update(context, event); });
   }
-  void end(Session& session, const ToolEvent& event) override {
-    guarded("end", [&] { tool_->end(session, event); });
+  void end(ToolContext& context, const ToolEvent& event) override {
+    guarded("end", [&] { tool_->end(context, event); });
   }
-  void cancel(Session& session) override {
-    guarded("cancel", [&] { tool_->cancel(session); });
+  void cancel(ToolContext& context) override {
+    guarded("cancel", [&] { tool_->cancel(context); });
   }
   Feedback haptic_force(const HapticSnapshot& snapshot, const ToolEvent& event) const override {
     return guarded("haptic_force", [&] { return tool_->haptic_force(snapshot, event); });
@@ -194,6 +194,16 @@ void check_tool_info(const ToolInfo& info) {
   }
 }
 
+std::string interface_advice(const std::string& plugin_interface) {
+  if (plugin_interface == "org.kiji.Tool/1")
+    return "the tools of org.kiji.Tool/1 were given the whole kiji::Session; those of " KIJI_TOOL_INTERFACE
+           " are given a kiji::ToolContext (kiji/tool_context.h: the garments, the body, the clock, picking and "
+           "hands on the solver), and the haptic snapshot and force models are in kiji/haptic_force.h. Change "
+           "the tool's begin, update, end and cancel to take a kiji::ToolContext& in place of kiji::Session&, "
+           "and rebuild it against this Kiji (docs/plugins.md)";
+  return "rebuild it against this version of Kiji";
+}
+
 ToolRegistry::ToolRegistry() = default;
 ToolRegistry::~ToolRegistry() = default;
 
@@ -282,7 +292,7 @@ PluginReport ToolRegistry::load_plugin(const std::string& path) {
   const std::string interface_id = j["interface"].get<std::string>();
   if (interface_id != KIJI_TOOL_INTERFACE)
     return refuse("plugin '" + report.id + "' implements " + interface_id + " but this Kiji loads " +
-                  KIJI_TOOL_INTERFACE + ": rebuild it against this version of Kiji");
+                  KIJI_TOOL_INTERFACE + ": " + interface_advice(interface_id));
   const std::string abi = j["abi"].get<std::string>();
   if (abi != abi_tag())
     return refuse("plugin '" + report.id + "' was built for another ABI (" + abi + ") than this Kiji's (" +
@@ -317,7 +327,8 @@ PluginReport ToolRegistry::load_plugin(const std::string& path) {
     return refuse_loaded(lib_path + " returned an incomplete plugin entry");
   if (std::string(entry->interface_id) != KIJI_TOOL_INTERFACE)
     return refuse_loaded(lib_path + " was built for " + entry->interface_id + ", not for this Kiji's " +
-                         KIJI_TOOL_INTERFACE + ", though its metadata says otherwise: rebuild the plugin");
+                         KIJI_TOOL_INTERFACE + ", though its metadata says otherwise: " +
+                         interface_advice(entry->interface_id));
   if (const std::string diff = abi_difference(entry->abi_tag, abi_tag()); !diff.empty())
     return refuse_loaded(lib_path + " was built for the ABI " + entry->abi_tag + ", not for this Kiji's (" +
                          abi_tag() + "), though its metadata says otherwise: " + diff);

@@ -86,10 +86,10 @@ class FailingTool : public Tool {
  public:
   explicit FailingTool(bool nan) : nan_(nan) {}
   ToolInfo info() const override { return {"failing", "Failing", "fails in its force callback", {}}; }
-  Feedback begin(Session&, const ParamSet&, const ToolEvent&) override { return {}; }
-  Feedback update(Session&, const ToolEvent&) override { return {}; }
-  void end(Session&, const ToolEvent&) override {}
-  void cancel(Session&) override {}
+  Feedback begin(ToolContext&, const ParamSet&, const ToolEvent&) override { return {}; }
+  Feedback update(ToolContext&, const ToolEvent&) override { return {}; }
+  void end(ToolContext&, const ToolEvent&) override {}
+  void cancel(ToolContext&) override {}
   Feedback haptic_force(const HapticSnapshot&, const ToolEvent&) const override {
     if (nan_) return {Vec3(std::nan(""), 0, 0), Vec3::Zero()};
     throw std::runtime_error("the cloth was not where the tool looked");

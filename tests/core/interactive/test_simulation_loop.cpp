@@ -25,12 +25,12 @@ std::shared_ptr<ToolRegistry> plugins() {
     reg->add("explode", [] {
       struct Explode : Tool {
         ToolInfo info() const override { return {"explode", "Explode", "throws as the stroke begins", {}}; }
-        Feedback begin(Session&, const ParamSet&, const ToolEvent&) override {
+        Feedback begin(ToolContext&, const ParamSet&, const ToolEvent&) override {
           throw std::runtime_error("the tool's own bug");
         }
-        Feedback update(Session&, const ToolEvent&) override { return {}; }
-        void end(Session&, const ToolEvent&) override {}
-        void cancel(Session&) override {}
+        Feedback update(ToolContext&, const ToolEvent&) override { return {}; }
+        void end(ToolContext&, const ToolEvent&) override {}
+        void cancel(ToolContext&) override {}
       };
       return std::make_unique<Explode>();
     });

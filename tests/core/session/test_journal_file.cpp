@@ -26,18 +26,18 @@ class Lift : public Tool {
              ParamSpec::choice("way", "up", {"up", "down"}, "Way", "Which way."),
              ParamSpec::boolean("flag", false, "Flag", "Unused.")}};
   }
-  Feedback begin(Session&, const ParamSet& p, const ToolEvent& e) override {
+  Feedback begin(ToolContext&, const ParamSet& p, const ToolEvent& e) override {
     hit_ = e.hit;
     lift_ = p.get_float("height") * double(p.get_int("times")) * (p.get_string("way") == "up" ? 1 : -1);
     return {};
   }
-  Feedback update(Session&, const ToolEvent&) override { return {}; }
-  void end(Session& s, const ToolEvent&) override {
+  Feedback update(ToolContext&, const ToolEvent&) override { return {}; }
+  void end(ToolContext& s, const ToolEvent&) override {
     if (!hit_.hit) return;
     Garment& g = s.garment(hit_.garment);
     g.set_position(hit_.nearest, g.position(hit_.nearest) + Vec3(0, lift_, 0));
   }
-  void cancel(Session&) override {}
+  void cancel(ToolContext&) override {}
 
  private:
   SurfaceHit hit_;

@@ -367,8 +367,26 @@ TEST_F(PluginLoaderTest, RefusesAnotherInterfaceVersionFromTheMetadataWithoutLoa
 }
 
 TEST_F(PluginLoaderTest, RefusesABinaryOfAnotherInterfaceWhoseMetadataClaimsThisOne) {
-  const PluginReport r = refused(add_plugin("kiji_v2", kRaw / "kiji_test_other_interface.so"));
-  EXPECT_CONTAINS(r.message, "was built for org.kiji.Tool/2");
+  const PluginReport r = refused(add_plugin("kiji_v3", kRaw / "kiji_test_other_interface.so"));
+  EXPECT_CONTAINS(r.message, "was built for org.kiji.Tool/3");
+}
+
+// A plugin built against a Kiji of the first tool interface, whose tools were given the whole
+// Session: refused before it is loaded, with what changed and what its author must do.
+TEST_F(PluginLoaderTest, RefusesAPluginBuiltForTheFirstInterfaceSayingWhatChanged) {
+  const fs::path lib =
+      add_plugin("kiji_probe_v1", kRaw / "kiji_test_interface_1.so", [](json& j) { j["interface"] = "org.kiji.Tool/1"; });
+  const PluginReport r = refused(lib);
+  EXPECT_FALSE(is_loaded(lib));
+  EXPECT_EQ(r.id, "probe");
+  EXPECT_CONTAINS(r.message, "plugin 'probe' implements org.kiji.Tool/1 but this Kiji loads org.kiji.Tool/2");
+  EXPECT_CONTAINS(r.message, "a kiji::ToolContext (kiji/tool_context.h");
+  EXPECT_CONTAINS(r.message, "take a kiji::ToolContext& in place of kiji::Session&, and rebuild it against this Kiji");
+
+  // Its binary says the same where its metadata was rewritten for this Kiji by hand.
+  const PluginReport r2 = refused(add_plugin("kiji_probe_v1_relabelled", kRaw / "kiji_test_interface_1.so"));
+  EXPECT_CONTAINS(r2.message, "was built for org.kiji.Tool/1, not for this Kiji's org.kiji.Tool/2");
+  EXPECT_CONTAINS(r2.message, "in place of kiji::Session&");
 }
 
 TEST_F(PluginLoaderTest, RefusesASecondPluginWithAnIdAlreadyTaken) {
@@ -388,10 +406,10 @@ TEST_F(PluginLoaderTest, RefusesASecondPluginWithAnIdAlreadyTaken) {
 TEST_F(PluginLoaderTest, RefusesAPluginWhoseIdABuiltInToolHas) {
   struct BuiltIn : kiji::Tool {
     kiji::ToolInfo info() const override { return {"probe", "Built-in probe", "", {}}; }
-    kiji::Feedback begin(kiji::Session&, const kiji::ParamSet&, const kiji::ToolEvent&) override { return {}; }
-    kiji::Feedback update(kiji::Session&, const kiji::ToolEvent&) override { return {}; }
-    void end(kiji::Session&, const kiji::ToolEvent&) override {}
-    void cancel(kiji::Session&) override {}
+    kiji::Feedback begin(kiji::ToolContext&, const kiji::ParamSet&, const kiji::ToolEvent&) override { return {}; }
+    kiji::Feedback update(kiji::ToolContext&, const kiji::ToolEvent&) override { return {}; }
+    void end(kiji::ToolContext&, const kiji::ToolEvent&) override {}
+    void cancel(kiji::ToolContext&) override {}
   };
   const fs::path lib = add_plugin("kiji_probe", kGoodLibrary);
   ToolRegistry registry;
@@ -588,10 +606,10 @@ TEST_F(PluginLoaderTest, RefusesAToolWhoseDescriptionWouldNotWorkInAHost) {
   struct Described : kiji::Tool {
     explicit Described(kiji::ToolInfo info) : info_(std::move(info)) {}
     kiji::ToolInfo info() const override { return info_; }
-    kiji::Feedback begin(kiji::Session&, const kiji::ParamSet&, const kiji::ToolEvent&) override { return {}; }
-    kiji::Feedback update(kiji::Session&, const kiji::ToolEvent&) override { return {}; }
-    void end(kiji::Session&, const kiji::ToolEvent&) override {}
-    void cancel(kiji::Session&) override {}
+    kiji::Feedback begin(kiji::ToolContext&, const kiji::ParamSet&, const kiji::ToolEvent&) override { return {}; }
+    kiji::Feedback update(kiji::ToolContext&, const kiji::ToolEvent&) override { return {}; }
+    void end(kiji::ToolContext&, const kiji::ToolEvent&) override {}
+    void cancel(kiji::ToolContext&) override {}
     kiji::ToolInfo info_;
   };
   auto refusal = [](const std::string& id, kiji::ToolInfo info) {
@@ -630,7 +648,7 @@ TEST_F(PluginLoaderTest, AFolderOfBrokenPluginsLoadsTheGoodOneAndReportsTheRest)
   add_plugin("kiji_a_good", kGoodLibrary);
   add_plugin("kiji_b_no_entry", kRaw / "kiji_test_no_entry.so");
   add_plugin("kiji_c_liar", kRaw / "kiji_test_other_abi.so");
-  add_plugin("kiji_d_v2", kRaw / "kiji_test_other_interface.so");
+  add_plugin("kiji_d_v3", kRaw / "kiji_test_other_interface.so");
   add_plugin("kiji_e_old", kGoodLibrary, [](json& j) { j["abi"] = "kiji0.0"; });
   write_text(dir_ / "kiji_f_text.so", "not a library");
   write_text(dir_ / "kiji_f_text.json", "not json");

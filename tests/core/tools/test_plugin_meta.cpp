@@ -110,7 +110,17 @@ TEST_F(PluginMetaTest, RefusesAToolThatCannotBeMadeOrDescribed) {
 }
 
 TEST_F(PluginMetaTest, RefusesABinaryOfAnotherInterface) {
-  EXPECT_CONTAINS(refusal(kRaw / "kiji_test_other_interface.so"), "built for interface org.kiji.Tool/2");
+  const std::string out = refusal(kRaw / "kiji_test_other_interface.so");
+  EXPECT_CONTAINS(out, "built for interface org.kiji.Tool/3, but this Kiji loads " KIJI_TOOL_INTERFACE);
+  EXPECT_CONTAINS(out, "rebuild it against this version of Kiji");
+}
+
+// A tool of the first interface, built again against this Kiji without changing its code: the build
+// stops here, saying what its code must change.
+TEST_F(PluginMetaTest, RefusesABinaryOfTheFirstInterfaceSayingWhatChanged) {
+  const std::string out = refusal(kRaw / "kiji_test_interface_1.so");
+  EXPECT_CONTAINS(out, "built for interface org.kiji.Tool/1, but this Kiji loads org.kiji.Tool/2");
+  EXPECT_CONTAINS(out, "take a kiji::ToolContext& in place of kiji::Session&");
 }
 
 TEST_F(PluginMetaTest, RefusesALibraryWithoutTheEntryPoint) {

@@ -194,10 +194,20 @@ class ReadArchive {
   void resize(List& items, std::size_t n) {
     items.resize(n);
   }
+  // A set (a list without resize) keeps each value once.
   template <class List, class Each>
   void list(List& items, std::size_t max, std::size_t record_bytes, const char* field, Each&& each) {
-    count(items, max, record_bytes, field);
-    for (auto& item : items) each(item);
+    if constexpr (has_resize<List>::value) {
+      count(items, max, record_bytes, field);
+      for (auto& item : items) each(item);
+    } else {
+      const std::size_t n = r_.count(max, record_bytes, field);
+      for (std::size_t i = 0; i < n; ++i) {
+        typename List::value_type item{};
+        each(item);
+        items.insert(items.end(), std::move(item));
+      }
+    }
   }
   // A key read twice keeps its last value.
   template <class Map, class Each>
@@ -243,6 +253,10 @@ class ReadArchive {
   }
 
  private:
+  template <class List, class = void>
+  struct has_resize : std::false_type {};
+  template <class List>
+  struct has_resize<List, std::void_t<decltype(std::declval<List&>().resize(0))>> : std::true_type {};
   std::size_t limit(std::size_t max) const { return max == kToTheEnd ? r_.left() : max; }
   template <class Variant, std::size_t... I>
   static void emplace(Variant& v, std::size_t index, std::index_sequence<I...>) {

@@ -4,7 +4,6 @@
 // there and fixed limits. The envelope around them is peer_wire.h. Internal to the core.
 #pragma once
 
-#include "base/byte_io.h"
 #include "kiji/operation.h"
 #include "kiji/peer.h"
 

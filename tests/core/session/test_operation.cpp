@@ -264,7 +264,8 @@ TEST(Operation, OperationsSavedByAnEarlierBuildDecodeAndEncodeToTheSameBytes) {
     EXPECT_EQ(now[i].bytes, saved[i].bytes) << saved[i].name;
   }
   EXPECT_EQ(kinds.size(), std::variant_size_v<OperationData>) << "every kind of operation is saved";
-  const auto& begin = std::get<op::ToolInput>(decode_operation(saved[0].bytes).data);
+  const Operation first = decode_operation(saved[0].bytes);
+  const auto& begin = std::get<op::ToolInput>(first.data);
   EXPECT_EQ(begin.params.size(), 5u);
   EXPECT_EQ(begin.event.orientation.coeffs(), Eigen::Quaterniond(0.9, 0.1, -0.3, 0.2).coeffs());
   for (const auto& s : saved) {

@@ -143,6 +143,7 @@ void bind_operations(py::module_& m) {
      "The operations of a session file and a report (operations, good_bytes, file_bytes, damage): a damaged\n"
      "or cut-off end is left out and said in damage.");
   m.attr("SESSION_CHANNEL") = kSessionChannel;
+  m.attr("SESSION_STATE_CHANNEL") = kSessionStateChannel;
   m.attr("SESSION_FILE_PROTOCOL") = kSessionFileProtocol;
   m.def("garment_bytes", [](const std::shared_ptr<GarmentRef>& g, bool with_texture) {
     if (!g) throw py::type_error("garment_bytes: expected a kiji.Garment");

@@ -564,7 +564,10 @@ void bind_session(py::module_& m) {
     auto session = std::make_shared<Session>(std::move(registry));
     {
       py::gil_scoped_release nogil;
-      replay(*session, load_session(path));
+      // From the state the file carries, if it has one: its steps are not replayed.
+      SavedState state;
+      const std::vector<Operation> ops = load_session(path, nullptr, &state);
+      open_operations(*session, ops, state);
     }
     return session;
   }, py::arg("path"), py::arg("registry"));

@@ -195,7 +195,11 @@ def test_session_files_read_back_as_operations_with_a_report(tmp_path):
     ops, report = kiji.load_session_operations(tmp_path / "s.kiji")
     assert [o.kind for o in ops] == s.operation_kinds and report["damage"] == ""
     data = (tmp_path / "s.kiji").read_bytes()
-    (tmp_path / "cut.kiji").write_bytes(data[:-10])
+    # Cut inside the last operation (the state saved after the operations starts 28 bytes before its
+    # channel's name, at the LCM event's header).
+    state_at = data.rfind(kiji.SESSION_STATE_CHANNEL.encode()) - 28
+    assert state_at > 0
+    (tmp_path / "cut.kiji").write_bytes(data[:state_at - 10])
     ops2, report2 = kiji.load_session_operations(tmp_path / "cut.kiji")
     assert len(ops2) < len(ops) and report2["damage"]
     journal = kiji.read_journal(_saved_journal(s, tmp_path))

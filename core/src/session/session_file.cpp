@@ -89,7 +89,7 @@ struct Autosave::Log {
   Log(const std::string& path, const char* mode) : file(path, mode) {}
 };
 
-std::vector<Operation> load_session(const std::string& path, SessionFileReport* report) {
+std::vector<Operation> load_session(const std::string& path, SessionFileReport* report, SavedState* state) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec))
     throw InputError("cannot read the session file '" + path + "': it does not exist or is not a file");
@@ -107,6 +107,12 @@ std::vector<Operation> load_session(const std::string& path, SessionFileReport* 
       Operation op;
       if (!decode_record(data.data(), data.size(), op, rep.damage)) break;
       ops.push_back(std::move(op));
+    } else if (channel == kSessionStateChannel && state) {
+      // A state that does not read is passed over: the operations give the session all the same.
+      Operation op;
+      std::string why;
+      const auto* checkpoint = decode_record(data.data(), data.size(), op, why) ? std::get_if<op::Checkpoint>(&op.data) : nullptr;
+      if (checkpoint && checkpoint->state) *state = {std::move(op), ops.size(), true};
     }
     rep.good_bytes = log.position();
   }
@@ -120,13 +126,26 @@ std::vector<Operation> load_session(const std::string& path, SessionFileReport* 
   return ops;
 }
 
-void save_session(const Session& session, const std::string& path) {
+void save_session(const Session& session, const std::string& path, const std::vector<Operation>& before) {
   detail::LcmLog log(path, "w");
   if (!log.good())
     throw InputError("cannot write the session file '" + path + "': check that its folder exists and is writable");
-  for (const Operation& op : operations_to_save(session))
-    if (!log.write(kSessionChannel, encode_record(op), now_us()))
+  auto write = [&](const Operation& op, const char* channel) {
+    if (!log.write(channel, encode_record(op), now_us()))
       throw InputError("writing the session file '" + path + "' failed (is the disk full?)");
+  };
+  for (const Operation& op : before) write(op, kSessionChannel);
+  for (const Operation& op : operations_to_save(session)) write(op, kSessionChannel);
+  write({session.steps(), 0, op::Checkpoint{std::make_shared<const std::string>(session.encode_state())}},
+        kSessionStateChannel);
+}
+
+std::size_t open_operations(Session& session, const std::vector<Operation>& operations, const SavedState& state) {
+  if (!state.found) return replay(session, operations);
+  session.perform(state.checkpoint);
+  std::size_t applied = 1;
+  for (std::size_t i = state.after; i < operations.size(); ++i, ++applied) session.perform(operations[i]);
+  return applied;
 }
 
 Autosave::Autosave(Session& session, const std::string& path, bool append) : session_(session), path_(path) {
@@ -142,10 +161,19 @@ Autosave::Autosave(Session& session, const std::string& path, bool append) : ses
 
 Autosave::~Autosave() { session_.remove_listener(listener_); }
 
-void Autosave::write(const Operation& op) {
-  if (!log_->file.write(kSessionChannel, encode_record(op), now_us()))
+void Autosave::write_state() {
+  write({session_.steps(), 0, op::Checkpoint{std::make_shared<const std::string>(session_.encode_state())}},
+        kSessionStateChannel);
+}
+
+void Autosave::write(const Operation& op, const char* channel) {
+  if (!log_->file.write(channel, encode_record(op), now_us()))
     throw InputError("autosave to '" + path_ + "' failed (is the disk full?): the operation was applied, but is not "
                      "saved");
+  if (channel != kSessionChannel) {
+    log_->file.sync();
+    return;
+  }
   ++written_;
   // Moves and begins are many and short-lived: the operating system has them, which a killed
   // process cannot lose. A finished stroke and every other operation go to the disk itself.
@@ -155,10 +183,12 @@ void Autosave::write(const Operation& op) {
 
 Recovered recover(const std::string& path, std::shared_ptr<ToolRegistry> registry, bool keep_saving) {
   Recovered out;
-  std::vector<Operation> ops = load_session(path, &out.report);
+  SavedState state;
+  std::vector<Operation> ops = load_session(path, &out.report, &state);
   out.session = std::make_unique<Session>(std::move(registry));
   Session& s = *out.session;
-  for (const Operation& op : ops) s.perform(op);
+  if (state.found) s.perform(state.checkpoint);
+  for (std::size_t i = state.found ? state.after : 0; i < ops.size(); ++i) s.perform(ops[i]);
   if (keep_saving) {
     if (out.report.good_bytes < out.report.file_bytes) {
       std::error_code ec;

@@ -12,7 +12,7 @@ packages=(
   iproute2 nftables util-linux
   python3 python3-dev python3-venv
   # Kiji Studio, the desktop app (built where Qt 6 is found), and its tests under a virtual X server.
-  qt6-base-dev libqt6opengl6-dev libgl-dev xvfb xauth
+  qt6-base-dev libqt6opengl6-dev libgl-dev xvfb xauth xdotool
 )
 
 missing=()

@@ -98,11 +98,15 @@ MainWindow::MainWindow(Studio& studio, QWidget* parent) : QMainWindow(parent), s
   status_vertices_ = new QLabel(this);
   status_tool_ = new QLabel(this);
   status_shared_ = new QLabel(this);
+  status_hint_ = new QLabel(this);
+  status_hint_->setObjectName("hint");
+  statusBar()->addWidget(status_hint_, 1);
   for (QLabel* l : {status_sim_, status_fps_, status_haptic_, status_vertices_, status_tool_, status_shared_})
     statusBar()->addPermanentWidget(l);
 
   build_menus();
   connect(&studio, &Studio::message, this, &MainWindow::on_message);
+  connect(viewport_, &Viewport::hint, status_hint_, &QLabel::setText);
   connect(&studio, &Studio::scene_changed, viewport_, &Viewport::frame_all);
   connect(&studio, &Studio::device_changed, this, &MainWindow::sync_device_menu);
   connect(&studio, &Studio::sharing_changed, this, [this] {

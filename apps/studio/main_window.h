@@ -70,6 +70,7 @@ class MainWindow : public QMainWindow {
   QLabel* status_vertices_;
   QLabel* status_tool_;
   QLabel* status_shared_;
+  QLabel* status_hint_;
   QAction* run_action_;
   QAction* undo_action_;
   QAction* redo_action_;

@@ -62,6 +62,29 @@ out vec4 out_color;
 void main() { out_color = vec4(color, alpha); }
 )";
 
+// Lines wider than a pixel, which a core profile need not draw: each segment becomes a quad facing
+// the screen, `width` pixels across.
+const char* kThickGeometry = R"(#version 330 core
+layout(lines) in;
+layout(triangle_strip, max_vertices = 4) out;
+uniform vec2 viewport;
+uniform float width;
+void main() {
+  vec4 a = gl_in[0].gl_Position, b = gl_in[1].gl_Position;
+  if (a.w <= 0.0 || b.w <= 0.0) return;
+  vec2 half_view = 0.5 * viewport;
+  vec2 sa = a.xy / a.w * half_view, sb = b.xy / b.w * half_view;
+  vec2 d = sb - sa;
+  d = length(d) > 1e-6 ? normalize(d) : vec2(1.0, 0.0);
+  vec2 n = vec2(-d.y, d.x) * 0.5 * width / half_view;
+  gl_Position = a + vec4(n * a.w, 0.0, 0.0); EmitVertex();
+  gl_Position = a - vec4(n * a.w, 0.0, 0.0); EmitVertex();
+  gl_Position = b + vec4(n * b.w, 0.0, 0.0); EmitVertex();
+  gl_Position = b - vec4(n * b.w, 0.0, 0.0); EmitVertex();
+  EndPrimitive();
+}
+)";
+
 void uniform(QOpenGLExtraFunctions* gl, QOpenGLShaderProgram& p, const char* name, const Eigen::Matrix4f& m) {
   gl->glUniformMatrix4fv(p.uniformLocation(name), 1, GL_FALSE, m.data());
 }
@@ -138,6 +161,10 @@ bool SceneRenderer::initialize(QOpenGLExtraFunctions* gl, QString* error) {
     return true;
   };
   if (!build(shaded_, kShadedVertex, kShadedFragment) || !build(flat_, kFlatVertex, kFlatFragment)) return false;
+  // Without the wide lines' program (no geometry shaders), lines are drawn a pixel wide.
+  thick_ready_ = thick_.addShaderFromSourceCode(QOpenGLShader::Vertex, kFlatVertex) &&
+                 thick_.addShaderFromSourceCode(QOpenGLShader::Geometry, kThickGeometry) &&
+                 thick_.addShaderFromSourceCode(QOpenGLShader::Fragment, kFlatFragment) && thick_.link();
   std::vector<float> p, n;
   std::vector<std::uint32_t> idx;
   sphere_mesh(p, n, idx);
@@ -268,13 +295,19 @@ void SceneRenderer::draw_solid(const Solid& s, const Eigen::Matrix4f& model, con
 }
 
 void SceneRenderer::draw_lines(const std::vector<float>& xyz, const Vec3& color, const Eigen::Matrix4f& vp, GLenum mode,
-                               float point_size) {
+                               float point_size, float alpha) {
   if (xyz.empty()) return;
-  flat_.bind();
-  uniform(gl_, flat_, "view_projection", vp);
-  uniform(flat_, "color", color);
-  flat_.setUniformValue("alpha", 1.0f);
-  flat_.setUniformValue("point_size", point_size);
+  const bool thick = thick_ready_ && mode != GL_POINTS && point_size > 1;
+  QOpenGLShaderProgram& p = thick ? thick_ : flat_;
+  p.bind();
+  uniform(gl_, p, "view_projection", vp);
+  uniform(p, "color", color);
+  p.setUniformValue("alpha", alpha);
+  p.setUniformValue("point_size", point_size);
+  if (thick) {
+    p.setUniformValue("viewport", float(viewport_width_), float(viewport_height_));
+    p.setUniformValue("width", point_size);
+  }
   lines_vao_->bind();
   lines_.bind();
   lines_.allocate(xyz.data(), static_cast<int>(xyz.size() * sizeof(float)));
@@ -401,10 +434,23 @@ void SceneRenderer::draw_peers(const PeerView& peers, const OrbitCamera& camera,
   gl_->glEnable(GL_DEPTH_TEST);
 }
 
+void SceneRenderer::draw_overlay(const Overlay& overlay, const Eigen::Matrix4f& vp) {
+  gl_->glEnable(GL_BLEND);
+  gl_->glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+  for (const OverlayLines& l : overlay.lines) {
+    if (l.on_top) gl_->glDisable(GL_DEPTH_TEST);
+    draw_lines(l.xyz, l.colour, vp, l.mode, l.size, l.alpha);
+    if (l.on_top) gl_->glEnable(GL_DEPTH_TEST);
+  }
+  gl_->glDisable(GL_BLEND);
+}
+
 void SceneRenderer::draw(const SceneFrame& frame, const OrbitCamera& camera, const DrawOptions& options, int width,
-                         int height, const PeerView* peers) {
+                         int height, const PeerView* peers, const Overlay* overlay) {
   if (!ready_ || width <= 0 || height <= 0) return;
   edges_drawn_ = 0;
+  viewport_width_ = width;
+  viewport_height_ = height;
   const double aspect = double(width) / double(height);
   const Eigen::Matrix4f view = camera.view();
   const Eigen::Matrix4f vp = camera.projection(aspect) * view;
@@ -505,6 +551,7 @@ void SceneRenderer::draw(const SceneFrame& frame, const OrbitCamera& camera, con
                  Vec3(0.85, 0.1, 0.1), vp, GL_LINES);
     }
   }
+  if (overlay) draw_overlay(*overlay, vp);
   if (peers) draw_peers(*peers, camera, vp, view);
 }
 

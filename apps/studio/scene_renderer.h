@@ -26,6 +26,20 @@ namespace kiji::studio {
 // around the pointer, or not at all.
 enum class EdgeDisplay { None, Local, All };
 
+// What the viewport draws over the scene to aim with: lines and points (a seam's sides and the pairs
+// it will join, the seams sewn, highlights).
+struct OverlayLines {
+  std::vector<float> xyz;
+  Vec3 colour{1, 1, 1};
+  GLenum mode = GL_LINES;  // GL_LINES, GL_LINE_STRIP, GL_LINE_LOOP or GL_POINTS
+  float size = 1;          // line width or point size, pixels
+  float alpha = 1;
+  bool on_top = false;     // drawn over whatever is in front of it
+};
+struct Overlay {
+  std::vector<OverlayLines> lines;
+};
+
 struct DrawOptions {
   EdgeDisplay edges = EdgeDisplay::Local;
   double local_radius = 0.12;  // metres around the pointer
@@ -45,7 +59,7 @@ class SceneRenderer {
   void release();
   // `peers`: a shared session's other users, drawn over the scene (null: none).
   void draw(const SceneFrame& frame, const OrbitCamera& camera, const DrawOptions& options, int width, int height,
-            const PeerView* peers = nullptr);
+            const PeerView* peers = nullptr, const Overlay* overlay = nullptr);
   // Edges and vertices drawn in the last frame, for the benchmark.
   std::size_t edges_drawn() const { return edges_drawn_; }
 
@@ -78,7 +92,8 @@ class SceneRenderer {
   void draw_solid(const Solid& solid, const Eigen::Matrix4f& model, const Vec3& color, const Eigen::Matrix4f& vp,
                   const Eigen::Matrix4f& view);
   void draw_lines(const std::vector<float>& xyz, const Vec3& color, const Eigen::Matrix4f& vp, GLenum mode,
-                  float point_size = 1);
+                  float point_size = 1, float alpha = 1);
+  void draw_overlay(const Overlay& overlay, const Eigen::Matrix4f& vp);
   void draw_topology(GarmentGpu& gpu, const GarmentFrame& g, const DrawOptions& options, const Vec3* centre,
                      const Eigen::Matrix4f& vp);
   // The faces of garment `index` whose three vertices a peer leases, tinted in its colour.
@@ -87,7 +102,9 @@ class SceneRenderer {
   void draw_peers(const PeerView& peers, const OrbitCamera& camera, const Eigen::Matrix4f& vp, const Eigen::Matrix4f& view);
 
   QOpenGLExtraFunctions* gl_ = nullptr;
-  QOpenGLShaderProgram shaded_, flat_;
+  QOpenGLShaderProgram shaded_, flat_, thick_;
+  bool thick_ready_ = false;
+  int viewport_width_ = 1, viewport_height_ = 1;
   std::vector<std::unique_ptr<GarmentGpu>> garments_;
   std::uint64_t body_id_ = ~0ull;
   Solid body_, sphere_;

@@ -4,6 +4,7 @@
 #include "kiji/journal_file.h"
 #include "kiji/session.h"
 #include "kiji/session_file.h"
+#include "kiji/topology.h"
 
 #include <QDir>
 #include <QFileInfo>
@@ -19,6 +20,23 @@ QString device_kind_name(DeviceKind kind) {
   }
   return "none";
 }
+
+namespace {
+
+// A point just inside a face of v, near v: a pick there finds v's side of the cloth, not the side of
+// a vertex that a cut left at the same place.
+Vec3 inside_near(const Garment& g, Vertex v) {
+  const Mesh& m = g.mesh();
+  for (Face f : CGAL::faces_around_target(m.halfedge(v), m)) {
+    if (f == Mesh::null_face()) continue;
+    Vec3 c = Vec3::Zero();
+    for (Vertex w : CGAL::vertices_around_face(m.halfedge(f), m)) c += g.position(w) / 3.0;
+    return g.position(v) + 0.05 * (c - g.position(v));
+  }
+  return g.position(v);
+}
+
+}  // namespace
 
 Studio::Studio(std::shared_ptr<ToolRegistry> tools, QObject* parent) : QObject(parent), tools_(std::move(tools)) {
   session_ = std::make_shared<Session>(tools_);
@@ -46,8 +64,8 @@ bool Studio::fail(const QString& what, const std::exception& e) {
 void Studio::start_loop() {
   loop_ = std::make_unique<SimulationLoop>(session_, 60);
   loop_->set_stepping(clock_running_);
-  if (!primary_.id.empty()) loop_->set_tool(kButtonPrimary, primary_.id, primary_.params);
-  if (!secondary_.id.empty()) loop_->set_tool(kButtonSecondary, secondary_.id, secondary_.params);
+  if (!primary_.id.empty() && !picking_) loop_->set_tool(kButtonPrimary, primary_.id, primary_.params);
+  if (!secondary_.id.empty() && !picking_) loop_->set_tool(kButtonSecondary, secondary_.id, secondary_.params);
   loop_->start();
   loop_->attach(haptics_.get());
 }
@@ -185,6 +203,61 @@ void Studio::redo() {
   }, "redo");
 }
 
+bool Studio::sew_seam(int garment, const std::vector<std::uint32_t>& first, const std::vector<std::uint32_t>& second) {
+  if (!tools_->has("sew")) {
+    emit message("There is no sew tool (see Help > Plugins): the seam was not sewn", true);
+    return false;
+  }
+  if (first.size() < 2 || second.size() < 2) {
+    emit message("A seam needs two sides of at least two border vertices each", true);
+    return false;
+  }
+  std::size_t pairs = 0;
+  try {
+    loop_->call([&](Session& s) {
+      if (garment < 0 || std::size_t(garment) >= s.garment_count())
+        throw InputError("the garment picked is gone (it was removed meanwhile)");
+      const Garment& g = s.garment(std::size_t(garment));
+      Stroke stroke;
+      auto trace = [&](const std::vector<std::uint32_t>& side, std::uint32_t button) {
+        for (std::uint32_t v : side) {
+          const Vertex vertex(v);
+          if (v >= g.vertex_capacity() || g.mesh().is_removed(vertex))
+            throw InputError("a border vertex picked is gone (the garment changed meanwhile): pick the sides again");
+          ToolEvent e;
+          e.phase = Phase::Move;
+          e.time = s.time();
+          e.position = inside_near(g, vertex);
+          e.buttons = button;
+          stroke.push_back(e);
+        }
+      };
+      trace(first, kButtonPrimary);
+      trace(second, kButtonSecondary);
+      stroke.front().phase = Phase::Begin;
+      stroke.back().phase = Phase::End;
+      ParamSet params = s.params_for("sew", {{"mode", std::string("seam")}});
+      if (primary_.id == "sew") {
+        params = primary_.params;
+        params.set("mode", std::string("seam"));
+      }
+      s.run("sew", params, stroke);
+      pairs = std::max(first.size(), second.size());
+    });
+  } catch (const std::exception& e) {
+    return fail("The seam was not sewn (the garment is as it was)", e);
+  }
+  emit message(QString("Sewn: a seam of %1 pairs (Ctrl+Z takes it out)").arg(pairs), false);
+  return true;
+}
+
+void Studio::set_picking(bool on) {
+  if (picking_ == on) return;
+  picking_ = on;
+  loop_->set_tool(kButtonPrimary, on ? std::string() : primary_.id, primary_.params);
+  loop_->set_tool(kButtonSecondary, on ? std::string() : secondary_.id, secondary_.params);
+}
+
 void Studio::set_simulating(bool on) {
   loop_->post([on](Session& s) { s.set_simulating(on); }, on ? "run" : "pause");
 }
@@ -247,7 +320,7 @@ void Studio::set_clock_running(bool on) {
 
 void Studio::set_tool(std::uint32_t button, const std::string& id, const ParamSet& params) {
   (button == kButtonSecondary ? secondary_ : primary_) = ToolChoice{id, params};
-  loop_->set_tool(button, id, params);
+  if (!picking_) loop_->set_tool(button, id, params);
 }
 
 void Studio::stop_device() {

@@ -53,6 +53,10 @@ class Studio : public QObject {
   // --- Edit ---
   void undo();
   void redo();
+  // Sews two stretches of border of a garment (mesh vertices, in order: the first of each meet, and
+  // so on) with the sew tool, as one stroke: the first side traced with the primary button, the
+  // second with the secondary.
+  bool sew_seam(int garment, const std::vector<std::uint32_t>& first, const std::vector<std::uint32_t>& second);
 
   // --- Simulation ---
   void set_simulating(bool on);
@@ -73,6 +77,13 @@ class Studio : public QObject {
   // The tool the pointer's button uses (kButtonPrimary or kButtonSecondary) and its parameters.
   void set_tool(std::uint32_t button, const std::string& id, const ParamSet& params);
   std::string tool(std::uint32_t button) const { return button == kButtonSecondary ? secondary_.id : primary_.id; }
+  const ParamSet& tool_params(std::uint32_t button) const {
+    return button == kButtonSecondary ? secondary_.params : primary_.params;
+  }
+  // While the app picks with the pointer itself (a seam's borders), the device's buttons make no
+  // strokes.
+  void set_picking(bool on);
+  bool picking() const { return picking_; }
 
   // --- Devices ---
   // Switches the pointing device. A Phantom that cannot be opened or started is a message (with the
@@ -141,6 +152,8 @@ class Studio : public QObject {
   bool clock_running_ = true;
   std::atomic<bool> draping_{false}, cancel_drape_{false};
   QTimer poll_timer_;
+
+  bool picking_ = false;
 
   std::unique_ptr<PeerLink> peer_;
   QTimer peer_timer_;

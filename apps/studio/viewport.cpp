@@ -9,6 +9,7 @@
 #include <QWheelEvent>
 #include <QWidget>
 
+#include <algorithm>
 #include <cmath>
 
 namespace kiji::studio {
@@ -18,6 +19,12 @@ namespace {
 // How far in front of the cloth the mouse's pointer sits: within every tool's touch distance (the
 // paint brush's is 5 mm), and clear of the surface so that the pick ray from it meets the cloth.
 constexpr double kAboveCloth = 0.002;
+// How near the cursor a border must be seen, in pixels, for a press to pick it.
+constexpr double kBorderReach = 14;
+// Colours of what the view draws to aim with.
+const Vec3 kFirstSide(0.15, 0.45, 1.0), kSecondSide(1.0, 0.5, 0.05), kPairs(0.1, 0.75, 0.3), kSewn(1.0, 0.97, 0.8);
+
+void push(std::vector<float>& xyz, const Vec3& p) { xyz.insert(xyz.end(), {float(p.x()), float(p.y()), float(p.z())}); }
 
 }  // namespace
 
@@ -100,7 +107,9 @@ void Viewport::paintGL() {
   options_.show_pointer = studio_.device_kind() == DeviceKind::Phantom || cursor_inside_ || drag_ == Drag::Stroke;
   const qreal dpr = devicePixelRatio();
   const auto peers = studio_.peer_view();
-  renderer_.draw(*frame, camera_, options_, int(width() * dpr), int(height() * dpr), peers.get());
+  Overlay overlay;
+  build_overlay(*frame, overlay);
+  renderer_.draw(*frame, camera_, options_, int(width() * dpr), int(height() * dpr), peers.get(), &overlay);
   if (peers) draw_peer_names(*peers);
   drawn_peers_ = peers;
   studio_.set_viewpoint(camera_.eye(), camera_.target);
@@ -113,8 +122,112 @@ void Viewport::paintGL() {
   fps_ = frame_times_.size() > 1 ? 1000.0 * (frame_times_.size() - 1) / double(frame_times_.back() - frame_times_.front()) : 0;
 }
 
+bool Viewport::seam_mode() const {
+  if (studio_.tool(kButtonPrimary) != "sew") return false;
+  const ParamSet& p = studio_.tool_params(kButtonPrimary);
+  try {
+    return p.get_string("mode") == "seam";
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
+void Viewport::say(const QString& text) {
+  if (text == hint_) return;
+  hint_ = text;
+  emit hint(text);
+}
+
+void Viewport::build_overlay(const SceneFrame& frame, Overlay& overlay) {
+  const Vec3 eye = camera_.eye();
+  // Lines on the cloth are drawn a millimetre towards the eye, so that the cloth does not hide them.
+  auto lifted = [&](const Vec3& p) { return Vec3(p + 0.001 * (eye - p).normalized()); };
+
+  // The seams sewn: dashed, as stitches.
+  for (std::size_t gi = 0; gi < frame.garments.size(); ++gi) {
+    const GarmentShape* shape = shapes_.get(frame, gi);
+    if (!shape || shape->seams.empty()) continue;
+    const auto& p = frame.garments[gi].positions;
+    OverlayLines stitches{{}, kSewn, GL_LINES, 2.5f};
+    for (std::size_t k = 0; k + 1 < shape->seams.size(); k += 2) {
+      const std::uint32_t a = shape->seams[k], b = shape->seams[k + 1];
+      const Vec3 pa(p[3 * a], p[3 * a + 1], p[3 * a + 2]), pb(p[3 * b], p[3 * b + 1], p[3 * b + 2]);
+      push(stitches.xyz, lifted(pa + 0.15 * (pb - pa)));
+      push(stitches.xyz, lifted(pa + 0.85 * (pb - pa)));
+    }
+    overlay.lines.push_back(std::move(stitches));
+  }
+
+  const bool seam = seam_mode();
+  // The seam being picked: its sides, the stretch being dragged, and the pairs it will join.
+  if (seam) {
+    const int gi = seams_.garment();
+    const GarmentShape* shape = gi >= 0 ? shapes_.get(frame, std::size_t(gi)) : nullptr;
+    seams_.check(gi >= 0 ? shape : nullptr);
+    auto side_line = [&](const std::vector<std::uint32_t>& side, const Vec3& colour, float width) {
+      OverlayLines l{{}, colour, GL_LINE_STRIP, width, 1, true};
+      for (std::uint32_t v : side) push(l.xyz, shape->position(frame.garments[std::size_t(gi)], v));
+      overlay.lines.push_back(l);
+      OverlayLines ends{{}, colour, GL_POINTS, 10, 1, true};
+      push(ends.xyz, shape->position(frame.garments[std::size_t(gi)], side.front()));
+      overlay.lines.push_back(ends);
+    };
+    if (shape) {
+      if (!seams_.first().empty()) side_line(seams_.first(), kFirstSide, 4);
+      const auto second = seams_.second();
+      if (!second.empty()) side_line(second, kSecondSide, 4);
+      if (seams_.picking() && seams_.stretch().size() >= 1)
+        side_line(seams_.stretch(), seams_.stage() == SeamPicker::Stage::First ? kFirstSide : kSecondSide, 4);
+      if (seams_.stage() == SeamPicker::Stage::Ready) {
+        OverlayLines pairs{{}, kPairs, GL_LINES, 1.5f, 1, true};
+        const auto all = seams_.pairs(frame.garments[std::size_t(gi)], *shape);
+        for (const auto& pr : all) {
+          push(pairs.xyz, pr.a);
+          push(pairs.xyz, pr.b);
+        }
+        overlay.lines.push_back(pairs);
+        if (!all.empty()) {
+          // The first pair thicker: which ends meet.
+          OverlayLines first{{}, kPairs, GL_LINES, 4, 1, true};
+          push(first.xyz, all.front().a);
+          push(first.xyz, all.front().b);
+          overlay.lines.push_back(first);
+        }
+      }
+    }
+    // The border under the cursor, and the side a click would take.
+    if (!seams_.picking() && seams_.stage() != SeamPicker::Stage::Ready && cursor_inside_ && drag_ == Drag::None &&
+        studio_.device_kind() != DeviceKind::Phantom) {
+      const BorderHit h = border_near(cursor_, kBorderReach);
+      if (h.vertex != kNone) {
+        const GarmentShape* hs = shapes_.get(frame, std::size_t(h.garment));
+        const Vec3 colour = seams_.stage() == SeamPicker::Stage::First ? kFirstSide : kSecondSide;
+        OverlayLines side{{}, colour, GL_LINE_STRIP, 2, 0.45f, true};
+        for (std::uint32_t v : hs->side_of(h.vertex)) push(side.xyz, hs->position(frame.garments[std::size_t(h.garment)], v));
+        overlay.lines.push_back(side);
+        OverlayLines dot{{}, colour, GL_POINTS, 12, 1, true};
+        push(dot.xyz, hs->position(frame.garments[std::size_t(h.garment)], h.vertex));
+        overlay.lines.push_back(dot);
+      }
+    }
+    say(seams_.hint());
+  }
+}
+
 void Viewport::tick() {
   const auto frame = studio_.frame();
+  // With the sew tool in seam mode the buttons pick borders: the device makes no strokes meanwhile.
+  const bool seam = seam_mode();
+  if (seam != picking_) {
+    picking_ = seam;
+    studio_.set_picking(seam);
+    if (!seam) {
+      seams_.clear();
+      say({});
+    }
+    dirty_ = true;
+  }
+  if (frame && seam && studio_.device_kind() == DeviceKind::Phantom) follow_phantom(*frame);
   if (continuous_) return;
   if (dirty_ || (frame && frame->number != drawn_frame_) || studio_.peer_view() != drawn_peers_) update();
   // With nothing drawn for a second, the rate shown is zero, not the last one measured.
@@ -122,6 +235,91 @@ void Viewport::tick() {
     frame_times_.clear();
     fps_ = 0;
   }
+}
+
+void Viewport::follow_phantom(const SceneFrame& frame) {
+  if (!frame.has_pointer) return;
+  const std::uint32_t buttons = frame.pointer.buttons;
+  const bool down1 = (buttons & kButtonPrimary) && !(phantom_buttons_ & kButtonPrimary);
+  const bool up1 = !(buttons & kButtonPrimary) && (phantom_buttons_ & kButtonPrimary);
+  const bool down2 = (buttons & kButtonSecondary) && !(phantom_buttons_ & kButtonSecondary);
+  phantom_buttons_ = buttons;
+  const BorderHit h = border_near(frame.pointer.position, 0.03);
+  const GarmentShape* shape = h.garment >= 0 ? shapes_.get(frame, std::size_t(h.garment)) : nullptr;
+  if (down2) seams_.flip();
+  if (down1) {
+    if (seams_.stage() == SeamPicker::Stage::Ready) sew_picked_seam();
+    else if (shape) seams_.press(h.garment, h.vertex, *shape);
+  } else if ((buttons & kButtonPrimary) && seams_.picking() && shape && h.garment == seams_.garment()) {
+    seams_.drag(h.vertex, *shape);
+  }
+  if (up1 && seams_.picking()) {
+    const GarmentShape* own = shapes_.get(frame, std::size_t(seams_.garment()));
+    if (own) seams_.release(frame.garments[std::size_t(seams_.garment())], *own);
+  }
+  dirty_ = true;
+}
+
+Viewport::BorderHit Viewport::border_near(const QPointF& at, double pixels, int only_garment, int only_loop) {
+  BorderHit best;
+  const auto frame = studio_.frame();
+  if (!frame) return best;
+  struct Candidate {
+    double pixels;
+    int garment;
+    std::uint32_t vertex;
+    Vec3 position;
+  };
+  std::vector<Candidate> near;
+  for (std::size_t gi = 0; gi < frame->garments.size(); ++gi) {
+    if (only_garment >= 0 && int(gi) != only_garment) continue;
+    const GarmentShape* shape = shapes_.get(*frame, gi);
+    if (!shape) continue;
+    for (std::size_t l = 0; l < shape->loops.size(); ++l) {
+      if (only_loop >= 0 && int(l) != only_loop) continue;
+      for (std::uint32_t v : shape->loops[l]) {
+        const Vec3 p = shape->position(frame->garments[gi], v);
+        const double d = std::hypot(project(p).x() - at.x(), project(p).y() - at.y());
+        if (d <= pixels) near.push_back({d, int(gi), v, p});
+      }
+    }
+  }
+  std::sort(near.begin(), near.end(), [](const Candidate& a, const Candidate& b) { return a.pixels < b.pixels; });
+  // The nearest seen: not behind cloth or body (a few tried, nearest first).
+  const Vec3 eye = camera_.eye();
+  for (std::size_t i = 0; i < near.size() && i < 6; ++i) {
+    const Vec3 to = near[i].position - eye;
+    const RayHit h = cast_ray(*frame, eye, to.normalized(), true);
+    if (h.hit && h.t < to.norm() - 0.01) continue;
+    return {near[i].garment, near[i].vertex};
+  }
+  return best;
+}
+
+Viewport::BorderHit Viewport::border_near(const Vec3& at, double reach) {
+  BorderHit best;
+  const auto frame = studio_.frame();
+  if (!frame) return best;
+  double best_d = reach;
+  for (std::size_t gi = 0; gi < frame->garments.size(); ++gi) {
+    const GarmentShape* shape = shapes_.get(*frame, gi);
+    if (!shape) continue;
+    for (const auto& loop : shape->loops)
+      for (std::uint32_t v : loop) {
+        const double d = (shape->position(frame->garments[gi], v) - at).norm();
+        if (d <= best_d) best_d = d, best = {int(gi), v};
+      }
+  }
+  return best;
+}
+
+bool Viewport::sew_picked_seam() {
+  if (seams_.stage() != SeamPicker::Stage::Ready) return false;
+  const int garment = seams_.garment();
+  const auto first = seams_.first(), second = seams_.second();
+  seams_.clear();
+  dirty_ = true;
+  return studio_.sew_seam(garment, first, second);
 }
 
 void Viewport::frame_all() {
@@ -173,39 +371,6 @@ Vec3 Viewport::cursor_ray(const QPointF& at) const {
   return camera_.ray(x, y, double(width()) / std::max(1, height()));
 }
 
-bool Viewport::pick_cloth(const Vec3& o, const Vec3& d, double* best) const {
-  const auto frame = studio_.frame();
-  if (!frame) return false;
-  bool found = false;
-  *best = std::numeric_limits<double>::infinity();
-  for (const GarmentFrame& g : frame->garments) {
-    if (!g.topology) continue;
-    const std::vector<std::uint32_t>& tri = g.topology->triangles;
-    const float* p = g.positions.data();
-    auto at = [&](std::uint32_t i) { return Vec3(p[3 * i], p[3 * i + 1], p[3 * i + 2]); };
-    for (std::size_t k = 0; k + 2 < tri.size(); k += 3) {
-      // Moller-Trumbore.
-      const Vec3 a = at(tri[k]), e1 = at(tri[k + 1]) - a, e2 = at(tri[k + 2]) - a;
-      const Vec3 h = d.cross(e2);
-      const double det = e1.dot(h);
-      if (std::abs(det) < 1e-14) continue;
-      const double inv = 1.0 / det;
-      const Vec3 s = o - a;
-      const double u = inv * s.dot(h);
-      if (u < 0 || u > 1) continue;
-      const Vec3 q = s.cross(e1);
-      const double v = inv * d.dot(q);
-      if (v < 0 || u + v > 1) continue;
-      const double t = inv * e2.dot(q);
-      if (t > 0 && t < *best) {
-        *best = t;
-        found = true;
-      }
-    }
-  }
-  return found;
-}
-
 void Viewport::push_pointer(const QPointF& at, std::uint32_t buttons) {
   MouseDevice* mouse = studio_.mouse();
   if (!mouse) return;
@@ -218,7 +383,9 @@ void Viewport::push_pointer(const QPointF& at, std::uint32_t buttons) {
   const bool pulling = drag_ == Drag::Stroke && frame && frame->stroke_active && frame->stroke_holds_cloth;
   Vec3 pointer;
   double t = 0;
-  if (!pulling && pick_cloth(eye, dir, &t)) {
+  const RayHit hit = frame && !pulling ? cast_ray(*frame, eye, dir, false) : RayHit{};
+  if (hit.hit) {
+    t = hit.t;
     pointer = eye + (t - kAboveCloth) * dir;
     // The plane a pull would move on goes through the cloth just found.
     plane_point_ = pointer;
@@ -239,23 +406,42 @@ void Viewport::push_pointer(const QPointF& at, std::uint32_t buttons) {
 }
 
 void Viewport::mousePressEvent(QMouseEvent* e) {
-  last_ = e->position();
+  last_ = pressed_at_ = cursor_ = e->position();
+  moved_ = false;
   const bool alt = e->modifiers() & Qt::AltModifier;
   if (e->button() == Qt::MiddleButton || (e->button() == Qt::LeftButton && alt)) {
     drag_ = (e->modifiers() & Qt::ShiftModifier) ? Drag::Pan : Drag::Orbit;
     return;
   }
   if (drag_ != Drag::None) return;
+  const auto frame = studio_.frame();
+  if (seam_mode() && frame) {
+    if (e->button() == Qt::RightButton) {
+      seams_.flip();
+    } else if (e->button() == Qt::LeftButton) {
+      if (seams_.stage() == SeamPicker::Stage::Ready) {
+        drag_ = Drag::SeamSew;
+      } else {
+        const BorderHit h = border_near(e->position(), kBorderReach);
+        if (h.vertex != kNone && seams_.press(h.garment, h.vertex, *shapes_.get(*frame, std::size_t(h.garment))))
+          drag_ = Drag::SeamPick;
+      }
+    }
+    dirty_ = true;
+    return;
+  }
   if (e->button() == Qt::LeftButton || e->button() == Qt::RightButton) {
     drag_ = Drag::Stroke;
-    push_pointer(e->position(), e->button() == Qt::LeftButton ? kButtonPrimary : kButtonSecondary);
+    const std::uint32_t button = e->button() == Qt::LeftButton ? kButtonPrimary : kButtonSecondary;
+    push_pointer(e->position(), button);
   }
 }
 
 void Viewport::mouseMoveEvent(QMouseEvent* e) {
   cursor_inside_ = true;
   const QPointF d = e->position() - last_;
-  last_ = e->position();
+  last_ = cursor_ = e->position();
+  if ((e->position() - pressed_at_).manhattanLength() > 4) moved_ = true;
   if (drag_ == Drag::Orbit) {
     camera_.orbit(-d.x() * 0.008, d.y() * 0.008);
     has_plane_ = false;
@@ -264,8 +450,22 @@ void Viewport::mouseMoveEvent(QMouseEvent* e) {
     camera_.pan(-d.x() / std::max(1, height()), d.y() / std::max(1, height()));
     has_plane_ = false;
     dirty_ = true;
+  } else if (drag_ == Drag::SeamPick) {
+    const auto frame = studio_.frame();
+    const int gi = seams_.garment();
+    const GarmentShape* shape = frame && gi >= 0 ? shapes_.get(*frame, std::size_t(gi)) : nullptr;
+    if (shape && !seams_.stretch().empty()) {
+      // Along the border the drag began on, within a generous reach of the cursor.
+      const BorderHit h = border_near(e->position(), 3 * kBorderReach, gi, shape->loop_of[seams_.stretch().front()]);
+      if (h.vertex != kNone) seams_.drag(h.vertex, *shape);
+    }
+    push_pointer(e->position(), 0u);
+    dirty_ = true;
+  } else if (drag_ == Drag::SeamSew) {
+    push_pointer(e->position(), 0u);
   } else {
     push_pointer(e->position(), drag_ == Drag::Stroke ? buttons_ : 0u);
+    dirty_ = true;
   }
 }
 
@@ -273,6 +473,17 @@ void Viewport::mouseReleaseEvent(QMouseEvent* e) {
   if (drag_ == Drag::Stroke && (e->button() == Qt::LeftButton || e->button() == Qt::RightButton)) {
     push_pointer(e->position(), 0u);
     drag_ = Drag::None;
+  } else if (drag_ == Drag::SeamPick && e->button() == Qt::LeftButton) {
+    drag_ = Drag::None;
+    const auto frame = studio_.frame();
+    const int gi = seams_.garment();
+    const GarmentShape* shape = frame && gi >= 0 ? shapes_.get(*frame, std::size_t(gi)) : nullptr;
+    if (shape) seams_.release(frame->garments[std::size_t(gi)], *shape);
+    else seams_.clear();
+    dirty_ = true;
+  } else if (drag_ == Drag::SeamSew && e->button() == Qt::LeftButton) {
+    drag_ = Drag::None;
+    if (!moved_) sew_picked_seam();
   } else if ((drag_ == Drag::Orbit || drag_ == Drag::Pan) &&
              (e->button() == Qt::MiddleButton || e->button() == Qt::LeftButton)) {
     drag_ = Drag::None;
@@ -301,9 +512,27 @@ bool Viewport::event(QEvent* e) {
 }
 
 void Viewport::keyPressEvent(QKeyEvent* e) {
-  if (e->key() == Qt::Key_F) frame_all();
-  else QOpenGLWindow::keyPressEvent(e);
+  const bool ctrl = e->modifiers() & Qt::ControlModifier;
+  switch (e->key()) {
+    case Qt::Key_F: frame_all(); return;
+    case Qt::Key_Escape:
+      seams_.clear();
+      dirty_ = true;
+      return;
+    case Qt::Key_Return:
+    case Qt::Key_Enter:
+      if (seams_.stage() == SeamPicker::Stage::Ready) sew_picked_seam();
+      return;
+    case Qt::Key_R:
+      if (!ctrl && seams_.stage() == SeamPicker::Stage::Ready) {
+        seams_.flip();
+        dirty_ = true;
+        return;
+      }
+      break;
+    default: break;
+  }
+  QOpenGLWindow::keyPressEvent(e);
 }
-
 
 }  // namespace kiji::studio

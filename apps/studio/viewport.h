@@ -5,7 +5,9 @@
 //    off the cloth, on a plane facing the camera;
 //  - while a stroke holds cloth (pinch, tear, a sewn vertex), it moves on the plane through the
 //    grabbed point facing the camera, and the wheel moves that plane nearer or farther.
-// Left button: the primary tool; right button: the secondary one.
+// Left button: the primary tool; right button: the secondary one. With the sew tool in seam mode the
+// buttons pick a seam's borders instead of making strokes (SeamPicker), for the mouse and a Phantom
+// alike, and the seam is previewed as the pairs it will join. The seams sewn are drawn as stitches.
 //
 // In a shared session it also draws the other peers: their pens with their names, their viewpoints,
 // and the cloth each holds.
@@ -15,8 +17,10 @@
 // several times what the scene does (docs/benchmarks.md, "Kiji Studio").
 #pragma once
 
+#include "frame_shapes.h"
 #include "orbit_camera.h"
 #include "scene_renderer.h"
+#include "seam_picker.h"
 
 #include <QElapsedTimer>
 #include <QOpenGLWindow>
@@ -51,11 +55,18 @@ class Viewport : public QOpenGLWindow {
   // The point of the widget where a world point is seen.
   QPointF project(const Vec3& world) const;
 
+  // The seam being picked with the sew tool in seam mode.
+  SeamPicker& seam_picker() { return seams_; }
+  // Sews the seam picked (both sides); false if there is none or it was refused.
+  bool sew_picked_seam();
+
  public slots:
   void frame_all();
 
  signals:
   void gl_failed(const QString& why);
+  // What a press would do now (for the status bar); empty for nothing to say.
+  void hint(const QString& text);
 
  protected:
   void initializeGL() override;
@@ -69,7 +80,7 @@ class Viewport : public QOpenGLWindow {
   bool event(QEvent* e) override;  // the cursor coming in and going out
 
  private:
-  enum class Drag { None, Orbit, Pan, Stroke };
+  enum class Drag { None, Orbit, Pan, Stroke, SeamPick, SeamSew };
   void tick();
   void release_gl();
   // Each other peer's name beside its pointer (over the GL picture).
@@ -77,7 +88,19 @@ class Viewport : public QOpenGLWindow {
   // The cursor as a 3D pointer for the mouse device.
   void push_pointer(const QPointF& at, std::uint32_t buttons);
   Vec3 cursor_ray(const QPointF& at) const;
-  bool pick_cloth(const Vec3& origin, const Vec3& dir, double* t) const;
+  // The border vertex seen nearest a point of the view within `pixels` (not hidden by cloth or body
+  // in front of it); only on `loop` of `garment` when those are given.
+  struct BorderHit {
+    int garment = -1;
+    std::uint32_t vertex = kNone;
+  };
+  BorderHit border_near(const QPointF& at, double pixels, int garment = -1, int loop = -1);
+  // The nearest border vertex to a world point within `reach` (a Phantom's pen picking a seam).
+  BorderHit border_near(const Vec3& at, double reach);
+  bool seam_mode() const;
+  void build_overlay(const SceneFrame& frame, Overlay& overlay);
+  void follow_phantom(const SceneFrame& frame);
+  void say(const QString& text);
 
   Studio& studio_;
   OrbitCamera camera_;
@@ -97,10 +120,17 @@ class Viewport : public QOpenGLWindow {
   bool cursor_inside_ = false;  // a mouse's pointer is drawn only while the cursor is over the view
 
   Drag drag_ = Drag::None;
-  QPointF last_;
+  QPointF last_, pressed_at_, cursor_;
+  bool moved_ = false;
   std::uint32_t buttons_ = 0;
   Vec3 plane_point_{0, 1, 0};  // the working plane, facing the camera
   bool has_plane_ = false;
+
+  ShapeCache shapes_;
+  SeamPicker seams_;
+  bool picking_ = false;
+  std::uint32_t phantom_buttons_ = 0;
+  QString hint_;
 
   QElapsedTimer fps_clock_;
   std::deque<qint64> frame_times_;

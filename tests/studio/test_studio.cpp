@@ -8,6 +8,7 @@
 
 #include "kiji/journal_file.h"
 #include "kiji/session.h"
+#include "kiji/topology.h"
 
 #include "fixtures/hd_standin/hd_record.h"
 
@@ -21,6 +22,7 @@
 #include <QTimer>
 #include <QLabel>
 #include <QLineEdit>
+#include <QProcess>
 #include <QPushButton>
 #include <QSpinBox>
 #include <QtTest/QtTest>
@@ -93,6 +95,69 @@ class StudioTest : public QObject {
       QTest::qWait(20);
     }
     QTest::mouseRelease(&v, Qt::LeftButton, mods, v.project(b).toPoint());
+  }
+
+  // A press, moves and release of the left button through the viewport along world points.
+  void drag_along(const std::vector<Vec3>& points, Qt::KeyboardModifiers mods = Qt::NoModifier) {
+    Viewport& v = window_->viewport();
+    QTest::mouseMove(&v, v.project(points.front()).toPoint());
+    QTest::qWait(20);
+    QTest::mousePress(&v, Qt::LeftButton, mods, v.project(points.front()).toPoint());
+    QTest::qWait(30);
+    for (const Vec3& p : points) {
+      QMouseEvent move(QEvent::MouseMove, v.project(p), v.mapToGlobal(v.project(p)), Qt::NoButton, Qt::LeftButton, mods);
+      QApplication::sendEvent(&v, &move);
+      QTest::qWait(15);
+    }
+    QTest::mouseRelease(&v, Qt::LeftButton, mods, v.project(points.back()).toPoint());
+    QTest::qWait(30);
+  }
+
+  std::size_t pieces() {
+    return with_session([](Session& s) { return s.garment_count() ? s.garment(0).count_pieces() : std::size_t(0); });
+  }
+  std::size_t border_loop_count() {
+    return with_session([](Session& s) { return s.garment_count() ? border_loops(s.garment(0)).size() : std::size_t(0); });
+  }
+
+  // The hanging square's side at x, bottom to top, as world points.
+  std::vector<Vec3> square_side(double x, int points = 21) {
+    const Box3 b = with_session([](Session& s) { return s.garment(0).bounds(); });
+    std::vector<Vec3> p;
+    for (int i = 0; i < points; ++i) p.emplace_back(x, b.min().y() + (b.max().y() - b.min().y()) * i / (points - 1.0), 0);
+    return p;
+  }
+
+  // Real X events (xdotool, through the X server, as a hand on the mouse makes them): the arguments
+  // are xdotool's; world points are given as "@i" with `at`, turned into screen pixels. Events are
+  // taken by the window as they come (the test's event loop runs meanwhile).
+  bool xdotool(const QStringList& args) {
+    QProcess p;
+    p.start(KIJI_XDOTOOL, args);
+    if (!p.waitForStarted(5000)) return false;
+    const bool done = wait_until([&] { return p.state() == QProcess::NotRunning; }, 20000);
+    QTest::qWait(100);
+    return done && p.exitStatus() == QProcess::NormalExit && p.exitCode() == 0;
+  }
+  QStringList screen(const Vec3& world) {
+    Viewport& v = window_->viewport();
+    const QPoint at = v.mapToGlobal(v.project(world).toPoint());
+    return {QString::number(at.x()), QString::number(at.y())};
+  }
+  // A press on the first point, moves through the others and release, with the left button.
+  QStringList x_drag(const std::vector<Vec3>& points) {
+    QStringList a = QStringList{"mousemove"} + screen(points.front());
+    a << "sleep" << "0.05" << "mousedown" << "1" << "sleep" << "0.05";
+    for (const Vec3& p : points) a << (QStringList{"mousemove"} + screen(p)) << "sleep" << "0.02";
+    a << "mouseup" << "1" << "sleep" << "0.05";
+    return a;
+  }
+
+  QAction* action_named(const QString& text) {
+    for (QAction* a : window_->findChildren<QAction*>())
+      if (a->text() == text) return a;
+    qFatal("no action '%s'", qPrintable(text));
+    return nullptr;
   }
 
   // Triggers the window's menu action named `text`; `fill` gets the modal dialog it opens (it runs
@@ -501,6 +566,80 @@ class StudioTest : public QObject {
     window_->tool_panel().choose("cut");
     drag(Vec3(-0.7, 1.2, 0), Vec3(0.7, 1.2, 0), 30);
     QVERIFY(wait_until([&] { return strokes() == 1; }));
+  }
+
+  // --- Sewing by hand: the two borders picked with the mouse ---
+
+  void a_seam_is_sewn_by_picking_two_borders_with_the_mouse() {
+    hanging_square(0.1);
+    ToolPanel& panel = window_->tool_panel();
+    panel.choose("sew");
+    qobject_cast<QComboBox*>(panel.params().editor("mode"))->setCurrentText("seam");
+    QTest::qWait(100);  // the view takes the buttons for picking
+    const Box3 b = with_session([](Session& s) { return s.garment(0).bounds(); });
+    SeamPicker& picker = window_->viewport().seam_picker();
+    drag_along(square_side(b.min().x()));
+    QCOMPARE(picker.stage(), SeamPicker::Stage::Second);
+    QCOMPARE(picker.first().size(), std::size_t(11));  // the whole left side, bottom to top
+    drag_along(square_side(b.max().x()));
+    QCOMPARE(picker.stage(), SeamPicker::Stage::Ready);
+    // The preview pairs the bottoms and the tops; the right button turns the second side round.
+    const auto second = picker.second();
+    Viewport& v = window_->viewport();
+    QTest::mouseClick(&v, Qt::RightButton, Qt::NoModifier, v.project(Vec3(0, 1.2, 0.3)).toPoint());
+    auto turned = picker.second();
+    std::reverse(turned.begin(), turned.end());
+    QCOMPARE(turned, second);
+    QTest::mouseClick(&v, Qt::RightButton, Qt::NoModifier, v.project(Vec3(0, 1.2, 0.3)).toPoint());
+    QCOMPARE(picker.second(), second);
+    QCOMPARE(strokes(), std::size_t(0));  // nothing sewn yet
+    QTest::mouseClick(&v, Qt::LeftButton, Qt::NoModifier, v.project(Vec3(0, 1.2, 0.3)).toPoint());
+    QVERIFY(wait_until([&] { return strokes() == 1; }));
+    // A tube: one piece, two border loops (top and bottom), no border left along the seam.
+    QCOMPARE(pieces(), std::size_t(1));
+    QCOMPARE(border_loop_count(), std::size_t(2));
+    QCOMPARE(picker.stage(), SeamPicker::Stage::First);
+    // One stroke of the sew tool: undone, the square is open again.
+    studio_->undo();
+    QVERIFY(wait_until([&] { return border_loop_count() == 1; }));
+  }
+
+  void a_seam_is_sewn_with_real_x_events_and_undone() {
+    if (QString(KIJI_XDOTOOL).isEmpty()) QSKIP("xdotool was not found when this test was built (scripts/setup.sh installs it)");
+    hanging_square(0.1);
+    ToolPanel& panel = window_->tool_panel();
+    panel.choose("sew");
+    qobject_cast<QComboBox*>(panel.params().editor("mode"))->setCurrentText("seam");
+    QTest::qWait(100);
+    const Box3 b = with_session([](Session& s) { return s.garment(0).bounds(); });
+    SeamPicker& picker = window_->viewport().seam_picker();
+    // The left side dragged over from bottom to top, the right one from top to bottom: the seam still
+    // joins bottom to bottom (the second side is turned to meet the nearer ends).
+    QVERIFY(xdotool(x_drag(square_side(b.min().x(), 6))));
+    QCOMPARE(picker.stage(), SeamPicker::Stage::Second);
+    QCOMPARE(picker.first().size(), std::size_t(11));
+    auto right = square_side(b.max().x(), 6);
+    std::reverse(right.begin(), right.end());
+    QVERIFY(xdotool(x_drag(right)));
+    QCOMPARE(picker.stage(), SeamPicker::Stage::Ready);
+    const auto at = [&](std::uint32_t v) {
+      return with_session([v](Session& s) { return s.garment(0).position(Vertex(v)); });
+    };
+    const Vec3 a0 = at(picker.first().front()), b0 = at(picker.second().front());
+    QVERIFY2(std::abs(a0.y() - b0.y()) < 0.01 && std::abs(a0.x() - b0.x()) > 0.5,
+             qPrintable(QString("the seam begins at (%1, %2) and (%3, %4)").arg(a0.x()).arg(a0.y()).arg(b0.x()).arg(b0.y())));
+    QTest::qWait(100);
+    window_->grab_window().save(tmp_ + "/seam_preview.png");
+    QCOMPARE(strokes(), std::size_t(0));
+    // A click away from the cloth sews.
+    QVERIFY(xdotool(QStringList{"mousemove"} + screen(Vec3(0, 1.2, 0.3)) + QStringList{"click", "1"}));
+    QVERIFY(wait_until([&] { return strokes() == 1; }));
+    QCOMPARE(pieces(), std::size_t(1));
+    QCOMPARE(border_loop_count(), std::size_t(2));
+    QTest::qWait(100);
+    window_->grab_window().save(tmp_ + "/seam_sewn.png");
+    action_named("&Undo")->trigger();
+    QVERIFY(wait_until([&] { return border_loop_count() == 1; }));
   }
 
   void the_window_draws_while_a_step_takes_long() {

@@ -35,7 +35,11 @@
 #include <QStatusBar>
 #include <QTextStream>
 
+#include <cctype>
 #include <cstdio>
+#include <map>
+#include <set>
+#include <tuple>
 
 namespace kiji::studio {
 
@@ -184,6 +188,15 @@ void MainWindow::build_menus() {
 
   QMenu* view = menuBar()->addMenu("&View");
   view->addAction("&Frame all", QKeySequence(Qt::Key_F), viewport_, &Viewport::frame_all);
+  const std::tuple<const char*, QKeySequence, Viewport::View> views[] = {
+      {"Fr&ont", QKeySequence(Qt::Key_1), Viewport::View::Front},
+      {"&Back", QKeySequence(Qt::CTRL | Qt::Key_1), Viewport::View::Back},
+      {"&Right side", QKeySequence(Qt::Key_3), Viewport::View::Right},
+      {"&Left side", QKeySequence(Qt::CTRL | Qt::Key_3), Viewport::View::Left},
+      {"&Top", QKeySequence(Qt::Key_7), Viewport::View::Top}};
+  for (const auto& [label, keys, which] : views)
+    view->addAction(label, keys, this, [this, which = which] { viewport_->set_view(which); });
+  view->addSeparator();
   QMenu* edges = view->addMenu("&Edges and vertices");
   edges_group_ = new QActionGroup(this);
   const std::pair<const char*, EdgeDisplay> modes[] = {
@@ -211,6 +224,25 @@ void MainWindow::build_menus() {
   view->addAction(tools_dock_->toggleViewAction());
   view->addAction(console_dock_->toggleViewAction());
   view->addAction(peers_dock_->toggleViewAction());
+
+  // The tools, each on a key: the verb's first letter where it is free.
+  QMenu* tools = menuBar()->addMenu("T&ools");
+  const std::map<std::string, Qt::Key> preferred = {{"pinch", Qt::Key_P}, {"tear", Qt::Key_T}, {"cut", Qt::Key_C},
+                                                    {"sew", Qt::Key_S}, {"paint", Qt::Key_B}, {"pin", Qt::Key_I}};
+  std::set<int> taken = {Qt::Key_F, Qt::Key_R};  // frame all; turn a seam
+  for (const auto& [id, key] : preferred)
+    if (studio_.tools().has(id)) taken.insert(key);
+  for (const std::string& id : studio_.tools().ids()) {
+    int key = 0;
+    if (const auto it = preferred.find(id); it != preferred.end()) key = it->second;
+    for (std::size_t i = 0; key == 0 && i < id.size(); ++i) {
+      const int k = Qt::Key_A + (std::toupper(static_cast<unsigned char>(id[i])) - 'A');
+      if (std::isalpha(static_cast<unsigned char>(id[i])) && !taken.count(k)) key = k, taken.insert(k);
+    }
+    const QString label = QString::fromStdString(studio_.tools().info(id).label);
+    QAction* a = tools->addAction(label, this, [this, id = id] { tools_->choose(id); });
+    if (key) a->setShortcut(QKeySequence(key));
+  }
 
   QMenu* sim = menuBar()->addMenu("&Simulation");
   run_action_ = sim->addAction("&Run", QKeySequence(Qt::Key_Space), this, [this](bool on) { studio_.set_simulating(on); });

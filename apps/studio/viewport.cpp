@@ -22,9 +22,36 @@ constexpr double kAboveCloth = 0.002;
 // How near the cursor a border must be seen, in pixels, for a press to pick it.
 constexpr double kBorderReach = 14;
 // Colours of what the view draws to aim with.
-const Vec3 kFirstSide(0.15, 0.45, 1.0), kSecondSide(1.0, 0.5, 0.05), kPairs(0.1, 0.75, 0.3), kSewn(1.0, 0.97, 0.8);
+const Vec3 kFirstSide(0.15, 0.45, 1.0), kSecondSide(1.0, 0.5, 0.05), kPairs(0.1, 0.75, 0.3);
+const Vec3 kReach(1.0, 0.85, 0.1), kSewn(1.0, 0.97, 0.8), kDrop(0.2, 0.22, 0.3);
 
 void push(std::vector<float>& xyz, const Vec3& p) { xyz.insert(xyz.end(), {float(p.x()), float(p.y()), float(p.z())}); }
+
+// A circle of radius r about c in the plane with normal n.
+std::vector<float> circle(const Vec3& c, const Vec3& n, double r, int segments = 40) {
+  const Vec3 u = n.unitOrthogonal(), v = n.normalized().cross(u);
+  std::vector<float> out;
+  for (int i = 0; i < segments; ++i) {
+    const double a = 2 * M_PI * i / segments;
+    push(out, c + r * (std::cos(a) * u + std::sin(a) * v));
+  }
+  return out;
+}
+
+// A dashed line from a to b: dashes of `dash` metres with gaps as long.
+std::vector<float> dashed(const Vec3& a, const Vec3& b, double dash) {
+  std::vector<float> out;
+  const double length = (b - a).norm();
+  if (!(length > 0)) return out;
+  const Vec3 d = (b - a) / length;
+  for (double t = 0; t < length; t += 2 * dash) {
+    push(out, a + t * d);
+    push(out, a + std::min(t + dash, length) * d);
+  }
+  return out;
+}
+
+QString centimetres(double metres) { return QString("%1 cm").arg(metres * 100, 0, 'f', metres < 0.1 ? 1 : 0); }
 
 }  // namespace
 
@@ -108,9 +135,27 @@ void Viewport::paintGL() {
   const qreal dpr = devicePixelRatio();
   const auto peers = studio_.peer_view();
   Overlay overlay;
-  build_overlay(*frame, overlay);
+  std::vector<std::pair<Vec3, QString>> labels;
+  build_overlay(*frame, overlay, labels);
   renderer_.draw(*frame, camera_, options_, int(width() * dpr), int(height() * dpr), peers.get(), &overlay);
   if (peers) draw_peer_names(*peers);
+  if (!labels.empty()) {
+    QPainter painter(this);
+    painter.setRenderHint(QPainter::Antialiasing);
+    QFont font = painter.font();
+    font.setBold(true);
+    painter.setFont(font);
+    const QFontMetrics metrics(font);
+    for (const auto& [at, text] : labels) {
+      const QPointF p = project(at);
+      const QRectF box(p + QPointF(12, -metrics.height() - 8), QSizeF(metrics.horizontalAdvance(text) + 10, metrics.height() + 4));
+      painter.setPen(Qt::NoPen);
+      painter.setBrush(QColor(20, 20, 30, 200));
+      painter.drawRoundedRect(box, 3, 3);
+      painter.setPen(Qt::white);
+      painter.drawText(box, Qt::AlignCenter, text);
+    }
+  }
   drawn_peers_ = peers;
   studio_.set_viewpoint(camera_.eye(), camera_.target);
   drawn_frame_ = frame->number;
@@ -132,16 +177,26 @@ bool Viewport::seam_mode() const {
   }
 }
 
+double Viewport::tool_float(const char* name, double fallback) const {
+  const ParamSet& p = studio_.tool_params(kButtonPrimary);
+  try {
+    return p.get_float(name);
+  } catch (const std::exception&) {
+    return fallback;
+  }
+}
+
 void Viewport::say(const QString& text) {
   if (text == hint_) return;
   hint_ = text;
   emit hint(text);
 }
 
-void Viewport::build_overlay(const SceneFrame& frame, Overlay& overlay) {
+void Viewport::build_overlay(const SceneFrame& frame, Overlay& overlay, std::vector<std::pair<Vec3, QString>>& labels) {
   const Vec3 eye = camera_.eye();
   // Lines on the cloth are drawn a millimetre towards the eye, so that the cloth does not hide them.
   auto lifted = [&](const Vec3& p) { return Vec3(p + 0.001 * (eye - p).normalized()); };
+  const double scale = camera_.distance / 3.0;
 
   // The seams sewn: dashed, as stitches.
   for (std::size_t gi = 0; gi < frame.garments.size(); ++gi) {
@@ -212,6 +267,88 @@ void Viewport::build_overlay(const SceneFrame& frame, Overlay& overlay) {
     }
     say(seams_.hint());
   }
+
+  // The trail of the stroke while it is drawn: for a cut, the line it will cut; for other tools a
+  // thin line, so that what they leave shows.
+  if (trail_live_ && trail_.size() >= 2) {
+    const bool cut = studio_.tool(buttons_ == kButtonSecondary ? kButtonSecondary : kButtonPrimary) == "cut";
+    OverlayLines line{{}, cut ? Vec3(0.85, 0.05, 0.1) : Vec3(0.95, 0.45, 0.1), GL_LINE_STRIP, cut ? 2.5f : 1.5f,
+                      cut ? 1.0f : 0.6f};
+    for (const Vec3& p : trail_) push(line.xyz, lifted(p));
+    overlay.lines.push_back(line);
+  }
+
+  // The pointer: a drop line and a shadow where it would come down on the cloth or the body.
+  drop_.reset();
+  if (frame.has_pointer && options_.show_pointer) {
+    const Vec3 tip = frame.pointer.position;
+    const RayHit below = cast_ray(frame, tip, Vec3(0, -1, 0), true);
+    double floor = frame.body ? frame.body->bounds().min().y() : 0.0;
+    if (!std::isfinite(floor)) floor = 0;
+    const Vec3 land = below.hit ? below.point : Vec3(tip.x(), std::min(floor, tip.y()), tip.z());
+    drop_ = land;
+    if ((tip - land).norm() > 0.004) {
+      overlay.lines.push_back({dashed(tip, land, 0.006 * scale), kDrop, GL_LINES, 1.5f, 0.8f});
+      const double r = 0.012 * scale;
+      for (double k : {1.0, 0.6, 0.25})
+        overlay.lines.push_back({circle(land + Vec3(0, 0.001, 0), Vec3::UnitY(), k * r), kDrop, GL_LINE_LOOP, 2, 0.6f});
+    }
+  }
+
+  // What a press would act on: the tool's reach on the cloth.
+  if (!seam && frame.has_pointer && options_.show_pointer && frame.hit.hit && !frame.stroke_active) {
+    const std::string tool = studio_.tool(kButtonPrimary);
+    double reach = tool_float("radius", 0);
+    if (reach <= 0) reach = tool_float("grab_radius", 0);
+    if (reach > 0)
+      overlay.lines.push_back({circle(lifted(frame.hit.point), frame.hit.normal, reach), kReach, GL_LINE_LOOP, 2});
+    if (tool == "sew") {
+      // The border vertex a sew would take (as the tool finds it), bold.
+      const double within = 3 * std::max(tool_float("distance", 0.01), 0.01);
+      const BorderHit h = border_near(frame.hit.point, within);
+      if (h.vertex != kNone) {
+        OverlayLines dot{{}, Vec3(0.1, 0.8, 0.9), GL_POINTS, 12, 1, true};
+        push(dot.xyz, shapes_.get(frame, std::size_t(h.garment))->position(frame.garments[std::size_t(h.garment)], h.vertex));
+        overlay.lines.push_back(dot);
+      }
+    }
+  }
+
+  // A vertex dragged by the sew tool: the vertex it would be sewn to, green within the sewing
+  // distance, orange as it comes near, with the distance between them.
+  if (frame.stroke_active && frame.stroke_tool == "sew" && !seam && sewn_vertex_ != kNone) {
+    const double distance = tool_float("distance", 0.01);
+    for (std::size_t gi = 0; gi < frame.garments.size(); ++gi) {
+      const GarmentShape* shape = shapes_.get(frame, gi);
+      if (!shape || !shape->on_border(sewn_vertex_)) continue;
+      const GarmentFrame& g = frame.garments[gi];
+      const Vec3 dragged = shape->position(g, sewn_vertex_);
+      const auto& loop = shape->loops[shape->loop_of[sewn_vertex_]];
+      const int n = int(loop.size()), at = shape->place_in_loop[sewn_vertex_];
+      std::uint32_t best = kNone;
+      double best_d = 6 * std::max(distance, 0.005);
+      for (const auto& l : shape->loops)
+        for (std::uint32_t v : l) {
+          if (v == sewn_vertex_ || v == loop[(at + 1) % n] || v == loop[(at + n - 1) % n]) continue;
+          const double d = (shape->position(g, v) - dragged).norm();
+          if (d < best_d) best_d = d, best = v;
+        }
+      overlay.lines.push_back({circle(dragged, eye - dragged, std::max(distance, 0.002)), Vec3(0.1, 0.8, 0.9), GL_LINE_LOOP, 1.5f, 0.8f, true});
+      if (best != kNone) {
+        const Vec3 target = shape->position(g, best);
+        const Vec3 colour = best_d <= distance ? kPairs : Vec3(1.0, 0.55, 0.1);
+        OverlayLines link{{}, colour, GL_LINES, 2.5f, 1, true};
+        push(link.xyz, dragged);
+        push(link.xyz, target);
+        overlay.lines.push_back(link);
+        OverlayLines dot{{}, colour, GL_POINTS, 12, 1, true};
+        push(dot.xyz, target);
+        overlay.lines.push_back(dot);
+        labels.emplace_back(target, best_d <= distance ? "sews here" : centimetres(best_d));
+      }
+      break;
+    }
+  }
 }
 
 void Viewport::tick() {
@@ -227,7 +364,21 @@ void Viewport::tick() {
     }
     dirty_ = true;
   }
-  if (frame && seam && studio_.device_kind() == DeviceKind::Phantom) follow_phantom(*frame);
+  if (frame) {
+    if (seam && studio_.device_kind() == DeviceKind::Phantom) follow_phantom(*frame);
+    // A stroke of a device other than the mouse leaves its trail too.
+    if (studio_.device_kind() == DeviceKind::Phantom) {
+      if (frame->stroke_active && !trail_live_) {
+        trail_.clear();
+        trail_live_ = true;
+      }
+      if (frame->stroke_active && frame->has_pointer)
+        trail_.push_back(frame->hit.hit ? frame->hit.point : frame->pointer.position);
+      if (!frame->stroke_active && trail_live_) {
+        trail_live_ = false;
+      }
+    }
+  }
   if (continuous_) return;
   if (dirty_ || (frame && frame->number != drawn_frame_) || studio_.peer_view() != drawn_peers_) update();
   // With nothing drawn for a second, the rate shown is zero, not the last one measured.
@@ -320,6 +471,19 @@ bool Viewport::sew_picked_seam() {
   seams_.clear();
   dirty_ = true;
   return studio_.sew_seam(garment, first, second);
+}
+
+void Viewport::set_view(View view) {
+  switch (view) {
+    case View::Front: camera_.yaw = 0, camera_.pitch = 0.1; break;
+    case View::Back: camera_.yaw = M_PI, camera_.pitch = 0.1; break;
+    case View::Right: camera_.yaw = M_PI / 2, camera_.pitch = 0.1; break;
+    case View::Left: camera_.yaw = -M_PI / 2, camera_.pitch = 0.1; break;
+    case View::Top: camera_.yaw = 0, camera_.pitch = 1.55; break;
+  }
+  has_plane_ = false;
+  frame_all();
+  dirty_ = true;
 }
 
 void Viewport::frame_all() {
@@ -433,6 +597,20 @@ void Viewport::mousePressEvent(QMouseEvent* e) {
   if (e->button() == Qt::LeftButton || e->button() == Qt::RightButton) {
     drag_ = Drag::Stroke;
     const std::uint32_t button = e->button() == Qt::LeftButton ? kButtonPrimary : kButtonSecondary;
+    trail_.clear();
+    trail_live_ = true;
+    sewn_vertex_ = kNone;
+    if (frame) {
+      const RayHit h = cast_ray(*frame, camera_.eye(), cursor_ray(e->position()), false);
+      if (h.hit) {
+        trail_.push_back(h.point);
+        // The border vertex a sew stroke takes, as the tool finds it.
+        if (studio_.tool(button) == "sew") {
+          const BorderHit b = border_near(h.point, 3 * std::max(tool_float("distance", 0.01), 0.01));
+          sewn_vertex_ = b.vertex;
+        }
+      }
+    }
     push_pointer(e->position(), button);
   }
 }
@@ -465,6 +643,13 @@ void Viewport::mouseMoveEvent(QMouseEvent* e) {
     push_pointer(e->position(), 0u);
   } else {
     push_pointer(e->position(), drag_ == Drag::Stroke ? buttons_ : 0u);
+    if (drag_ == Drag::Stroke) {
+      const auto frame = studio_.frame();
+      if (frame) {
+        const RayHit h = cast_ray(*frame, camera_.eye(), cursor_ray(e->position()), false);
+        if (h.hit) trail_.push_back(h.point);
+      }
+    }
     dirty_ = true;
   }
 }
@@ -473,6 +658,8 @@ void Viewport::mouseReleaseEvent(QMouseEvent* e) {
   if (drag_ == Drag::Stroke && (e->button() == Qt::LeftButton || e->button() == Qt::RightButton)) {
     push_pointer(e->position(), 0u);
     drag_ = Drag::None;
+    trail_live_ = false;
+    sewn_vertex_ = kNone;
   } else if (drag_ == Drag::SeamPick && e->button() == Qt::LeftButton) {
     drag_ = Drag::None;
     const auto frame = studio_.frame();
@@ -498,7 +685,23 @@ void Viewport::wheelEvent(QWheelEvent* e) {
     push_pointer(last_, buttons_);
     return;
   }
+  // Towards what is under the cursor, which stays where it is seen (else the point at the target's
+  // depth under it).
+  const Vec3 eye = camera_.eye(), dir = cursor_ray(e->position());
+  Vec3 at;
+  const auto frame = studio_.frame();
+  const RayHit h = frame ? cast_ray(*frame, eye, dir, true) : RayHit{};
+  if (h.hit) {
+    at = h.point;
+  } else {
+    const double denom = dir.dot(camera_.forward());
+    at = eye + (std::abs(denom) > 1e-9 ? (camera_.target - eye).dot(camera_.forward()) / denom : camera_.distance) * dir;
+  }
+  const double before = camera_.distance;
   camera_.zoom(std::pow(0.9, notches));
+  const double f = camera_.distance / before;
+  // The eye moves along its line to `at`: target and eye both scale about it.
+  camera_.target = at + f * (camera_.target - at);
   has_plane_ = false;
   dirty_ = true;
 }
@@ -515,6 +718,9 @@ void Viewport::keyPressEvent(QKeyEvent* e) {
   const bool ctrl = e->modifiers() & Qt::ControlModifier;
   switch (e->key()) {
     case Qt::Key_F: frame_all(); return;
+    case Qt::Key_1: set_view(ctrl ? View::Back : View::Front); return;
+    case Qt::Key_3: set_view(ctrl ? View::Left : View::Right); return;
+    case Qt::Key_7: set_view(View::Top); return;
     case Qt::Key_Escape:
       seams_.clear();
       dirty_ = true;

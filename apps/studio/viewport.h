@@ -1,13 +1,19 @@
 // The 3D view: draws the latest published frame (never waiting for a step), moves the camera
-// (middle button or Alt + left: orbit; with Shift: pan; wheel: zoom; F: frame all) and, when the
-// mouse is the pointing device, turns the cursor into a 3D pointer with a pick ray:
+// (middle button or Alt + left: orbit; with Shift: pan; wheel: zoom towards the cursor; F: frame
+// all; 1, 3, 7: front, right and top views, with Ctrl the opposite side) and, when the mouse is the
+// pointing device, turns the cursor into a 3D pointer with a pick ray:
 //  - hovering or drawing on the cloth (cut, paint), the pointer sits on the cloth under the cursor;
 //    off the cloth, on a plane facing the camera;
 //  - while a stroke holds cloth (pinch, tear, a sewn vertex), it moves on the plane through the
 //    grabbed point facing the camera, and the wheel moves that plane nearer or farther.
-// Left button: the primary tool; right button: the secondary one. With the sew tool in seam mode the
-// buttons pick a seam's borders instead of making strokes (SeamPicker), for the mouse and a Phantom
-// alike, and the seam is previewed as the pairs it will join. The seams sewn are drawn as stitches.
+// Left button: the primary tool; right button: the secondary one.
+//
+// So that a press lands where the user means, it draws a drop line and a shadow from the pointer to
+// the cloth or body below it, what a press would act on (the tool's reach on the cloth; the border
+// vertex a sew would take and, while it is dragged, the vertex it would be sewn to, with the distance),
+// the trail of a stroke as it is drawn (for a cut: the line it will cut, and whether it will close),
+// and the seams sewn. With the sew tool in seam mode the buttons pick a seam's borders instead of
+// making strokes (SeamPicker), for the mouse and a Phantom alike.
 //
 // In a shared session it also draws the other peers: their pens with their names, their viewpoints,
 // and the cloth each holds.
@@ -55,10 +61,19 @@ class Viewport : public QOpenGLWindow {
   // The point of the widget where a world point is seen.
   QPointF project(const Vec3& world) const;
 
+  enum class View { Front, Back, Right, Left, Top };
+  // Looks at the scene from a side (the body faces +Z: the front view looks at it from +Z), framed.
+  void set_view(View view);
+
   // The seam being picked with the sew tool in seam mode.
   SeamPicker& seam_picker() { return seams_; }
   // Sews the seam picked (both sides); false if there is none or it was refused.
   bool sew_picked_seam();
+  // The trail of the stroke in progress or the last one (world points on the cloth).
+  const std::vector<Vec3>& trail() const { return trail_; }
+  // Where the drop line from the pointer lands (the cloth or body below it, else the floor), if the
+  // pointer is drawn.
+  std::optional<Vec3> drop_point() const { return drop_; }
 
  public slots:
   void frame_all();
@@ -98,7 +113,8 @@ class Viewport : public QOpenGLWindow {
   // The nearest border vertex to a world point within `reach` (a Phantom's pen picking a seam).
   BorderHit border_near(const Vec3& at, double reach);
   bool seam_mode() const;
-  void build_overlay(const SceneFrame& frame, Overlay& overlay);
+  double tool_float(const char* name, double fallback) const;
+  void build_overlay(const SceneFrame& frame, Overlay& overlay, std::vector<std::pair<Vec3, QString>>& labels);
   void follow_phantom(const SceneFrame& frame);
   void say(const QString& text);
 
@@ -130,6 +146,10 @@ class Viewport : public QOpenGLWindow {
   SeamPicker seams_;
   bool picking_ = false;
   std::uint32_t phantom_buttons_ = 0;
+  std::vector<Vec3> trail_;
+  bool trail_live_ = false;
+  std::uint32_t sewn_vertex_ = kNone;  // the border vertex a sew stroke drags
+  std::optional<Vec3> drop_;
   QString hint_;
 
   QElapsedTimer fps_clock_;

@@ -642,6 +642,69 @@ class StudioTest : public QObject {
     QVERIFY(wait_until([&] { return border_loop_count() == 1; }));
   }
 
+  // --- Depth and aim ---
+
+  void views_are_on_keys_and_the_wheel_zooms_towards_the_cursor() {
+    hanging_square();
+    Viewport& v = window_->viewport();
+    v.widget()->setFocus();
+    QTest::keyClick(window_.get(), Qt::Key_7);
+    QVERIFY(v.camera().pitch > 1.5);
+    QTest::keyClick(window_.get(), Qt::Key_3, Qt::ControlModifier);
+    QVERIFY(std::abs(v.camera().yaw + M_PI / 2) < 1e-9);
+    QTest::keyClick(window_.get(), Qt::Key_1);
+    QVERIFY(std::abs(v.camera().yaw) < 1e-9 && v.camera().pitch < 0.2);
+    // The cloth point under the cursor stays under it as the view comes nearer.
+    const Vec3 aim(0.3, 1.4, 0);
+    const QPointF at = v.project(aim);
+    const double distance = v.camera().distance;
+    QWheelEvent wheel(at, v.mapToGlobal(at), QPoint(), QPoint(0, 360), Qt::NoButton, Qt::NoModifier, Qt::NoScrollPhase, false);
+    QApplication::sendEvent(&v, &wheel);
+    QVERIFY(v.camera().distance < 0.8 * distance);
+    const QPointF now = v.project(aim);
+    QVERIFY2(std::hypot(now.x() - at.x(), now.y() - at.y()) < 3,
+             qPrintable(QString("(%1, %2) moved to (%3, %4)").arg(at.x()).arg(at.y()).arg(now.x()).arg(now.y())));
+  }
+
+  void the_pointer_drops_a_line_to_what_is_below_it() {
+    hanging_square();
+    // The square lies flat, 1 m up: the pointer 30 cm above it drops onto it.
+    studio_->loop().call([](Session& s) {
+      Garment g = s.garment(0);
+      for (Vertex w : g.mesh().vertices()) {
+        const Vec3 p = g.position(w);
+        g.set_position(w, Vec3(p.x(), 1.0, p.y() - 1.2));
+      }
+      s.set_garment(0, g);
+    });
+    Viewport& v = window_->viewport();
+    v.set_view(Viewport::View::Front);
+    QTest::qWait(100);
+    // Over the cloth seen edge on: the pointer is on the plane facing the view, above the cloth.
+    QTest::mouseMove(&v, v.project(Vec3(0.1, 1.3, 0)).toPoint());
+    // (The line is drawn, and its end found, as the frame with the pointer there is drawn.)
+    QVERIFY(wait_until([&] {
+      const Vec3 p = studio_->frame()->pointer.position;
+      return p.y() > 1.1 && v.drop_point() && std::abs(v.drop_point()->x() - p.x()) < 1e-6;
+    }, 3000));
+    const Vec3 pointer = studio_->frame()->pointer.position;
+    QVERIFY2(std::abs(v.drop_point()->y() - 1.0) < 0.01,
+             qPrintable(QString("the pointer at (%1, %2, %3) drops to y %4").arg(pointer.x()).arg(pointer.y()).arg(pointer.z()).arg(v.drop_point()->y())));
+    QVERIFY(std::abs(v.drop_point()->x() - pointer.x()) < 1e-6);
+    window_->grab_window().save(tmp_ + "/drop_line.png");  // to look at
+  }
+
+  void the_tools_are_on_keys() {
+    hanging_square();
+    window_->viewport().widget()->setFocus();
+    QTest::keyClick(window_.get(), Qt::Key_C);
+    QCOMPARE(studio_->tool(kButtonPrimary), std::string("cut"));
+    QTest::keyClick(window_.get(), Qt::Key_S);
+    QCOMPARE(studio_->tool(kButtonPrimary), std::string("sew"));
+    QTest::keyClick(window_.get(), Qt::Key_P);
+    QCOMPARE(studio_->tool(kButtonPrimary), std::string("pinch"));
+  }
+
   void the_window_draws_while_a_step_takes_long() {
     hanging_square();
     // A step that takes as long as the test likes: the session's lock held on another thread, as a

@@ -28,7 +28,9 @@
 #include <QJsonObject>
 #include <QPushButton>
 #include <QLabel>
+#include <QAbstractSpinBox>
 #include <QLineEdit>
+#include <QPlainTextEdit>
 #include <QMenuBar>
 #include <QMessageBox>
 #include <QPainter>
@@ -111,6 +113,7 @@ MainWindow::MainWindow(Studio& studio, QWidget* parent) : QMainWindow(parent), s
   build_menus();
   connect(&studio, &Studio::message, this, &MainWindow::on_message);
   connect(viewport_, &Viewport::hint, status_hint_, &QLabel::setText);
+  connect(tools_, &ToolPanel::said, this, [this](const QString& text) { on_message(text, false); });
   connect(&studio, &Studio::scene_changed, viewport_, &Viewport::frame_all);
   connect(&studio, &Studio::device_changed, this, &MainWindow::sync_device_menu);
   connect(&studio, &Studio::sharing_changed, this, [this] {
@@ -136,6 +139,24 @@ MainWindow::~MainWindow() = default;
 void MainWindow::closeEvent(QCloseEvent* e) {
   studio_.cancel_drape();
   QMainWindow::closeEvent(e);
+}
+
+void MainWindow::undo_or_redo(bool redo) {
+  // A text field with the keyboard (the console's input, a parameter's box) takes its own undo.
+  QWidget* focus = QApplication::focusWidget();
+  if (auto* line = qobject_cast<QLineEdit*>(focus)) {
+    redo ? line->redo() : line->undo();
+    return;
+  }
+  if (auto* text = qobject_cast<QPlainTextEdit*>(focus); text && !text->isReadOnly()) {
+    redo ? text->redo() : text->undo();
+    return;
+  }
+  if (auto* spin = qobject_cast<QAbstractSpinBox*>(focus)) {
+    if (auto* line = spin->findChild<QLineEdit*>()) redo ? line->redo() : line->undo();
+    return;
+  }
+  redo ? studio_.redo() : studio_.undo();
 }
 
 void MainWindow::build_menus() {
@@ -182,9 +203,9 @@ void MainWindow::build_menus() {
   file->addAction("&Quit", QKeySequence::Quit, this, &QWidget::close);
 
   QMenu* edit = menuBar()->addMenu("&Edit");
-  undo_action_ = edit->addAction("&Undo", QKeySequence(Qt::CTRL | Qt::Key_Z), this, [this] { studio_.undo(); });
+  undo_action_ = edit->addAction("&Undo", QKeySequence(Qt::CTRL | Qt::Key_Z), this, [this] { undo_or_redo(false); });
   redo_action_ =
-      edit->addAction("&Redo", QKeySequence(Qt::CTRL | Qt::SHIFT | Qt::Key_Z), this, [this] { studio_.redo(); });
+      edit->addAction("&Redo", QKeySequence(Qt::CTRL | Qt::SHIFT | Qt::Key_Z), this, [this] { undo_or_redo(true); });
 
   QMenu* view = menuBar()->addMenu("&View");
   view->addAction("&Frame all", QKeySequence(Qt::Key_F), viewport_, &Viewport::frame_all);
@@ -308,11 +329,22 @@ void MainWindow::on_message(const QString& text, bool error) {
   if (!error) return;
   errors_.push_back(text);
   std::fprintf(stderr, "kiji-studio: %s\n", text.toLocal8Bit().constData());
-  // Not modal: the session goes on, and a scripted run is not held up.
-  auto* box = new QMessageBox(QMessageBox::Warning, "Kiji Studio", text, QMessageBox::Ok, this);
-  box->setAttribute(Qt::WA_DeleteOnClose);
-  box->setModal(false);
-  box->show();
+  // Not modal: the session goes on, and a scripted run is not held up. One box: a message that comes
+  // while it is open replaces the one it shows, and says how many came.
+  if (!error_box_) {
+    error_box_ = new QMessageBox(QMessageBox::Warning, "Kiji Studio", text, QMessageBox::Ok, this);
+    error_box_->setObjectName("error_box");
+    error_box_->setAttribute(Qt::WA_DeleteOnClose);
+    error_box_->setModal(false);
+    connect(error_box_, &QObject::destroyed, this, [this] {
+      error_box_ = nullptr;
+      errors_in_box_ = 0;
+    });
+  }
+  ++errors_in_box_;
+  error_box_->setText(errors_in_box_ > 1 ? QString("%1\n\n(%2 messages; this is the latest)").arg(text).arg(errors_in_box_)
+                                         : text);
+  error_box_->show();
 }
 
 QString MainWindow::status_text() const {

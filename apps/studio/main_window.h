@@ -13,6 +13,7 @@ class QAction;
 class QActionGroup;
 class QDockWidget;
 class QLabel;
+class QMessageBox;
 
 namespace kiji::studio {
 
@@ -54,6 +55,8 @@ class MainWindow : public QMainWindow {
   void phantom_settings_dialog();
   void share_dialog(bool host);
   void sync_device_menu();
+  // Undo and redo go to the text field that has the keyboard, else to the scene.
+  void undo_or_redo(bool redo);
 
   Studio& studio_;
   Viewport* viewport_;
@@ -71,6 +74,8 @@ class MainWindow : public QMainWindow {
   QLabel* status_tool_;
   QLabel* status_shared_;
   QLabel* status_hint_;
+  QMessageBox* error_box_ = nullptr;
+  int errors_in_box_ = 0;
   QAction* run_action_;
   QAction* undo_action_;
   QAction* redo_action_;

@@ -83,7 +83,14 @@ void drape_session(Session& session, double seconds, const std::function<bool(do
   const SolverParams own = session.solver_params();
   SolverParams p = options.solver;
   p.model = own.model;
+  // Paused, the cloth would not move: it runs for the drape and is paused again after it.
+  const bool paused = !session.simulating();
   session.set_solver_params(p);
+  if (paused) session.set_simulating(true);
+  auto restore = [&] {
+    session.set_solver_params(own);
+    if (paused) session.set_simulating(false);
+  };
   try {
     const auto steps = static_cast<long>(std::llround(seconds * session.frame_rate()));
     for (long i = 0; i < steps; ++i) {
@@ -91,10 +98,10 @@ void drape_session(Session& session, double seconds, const std::function<bool(do
       if (progress && !progress(double(i + 1) / double(steps))) break;
     }
   } catch (...) {
-    session.set_solver_params(own);
+    restore();
     throw;
   }
-  session.set_solver_params(own);
+  restore();
 }
 
 }  // namespace kiji::studio

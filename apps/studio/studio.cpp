@@ -287,8 +287,12 @@ void Studio::drape(double seconds) {
       return !cancel_drape_.load() && !loop->stop_requested();
     });
     const double simulated = s.time() - start;
-    QMetaObject::invokeMethod(this, [this, simulated] {
-      emit message(QString("Draped for %1 s of simulated time").arg(simulated, 0, 'f', 2), false);
+    const bool paused = !s.simulating();
+    QMetaObject::invokeMethod(this, [this, simulated, paused] {
+      emit message(QString("Draped for %1 s of simulated time%2")
+                       .arg(simulated, 0, 'f', 2)
+                       .arg(paused ? " (the simulation ran for it, and is paused again)" : ""),
+                   false);
     });
   }, "drape");
 }

@@ -70,6 +70,41 @@ void show_colour(QPushButton* b, const Vec3& c) {
   b->setStyleSheet(QString("background-color: %1; color: %2;").arg(q.name(), q.lightnessF() > 0.5 ? "black" : "white"));
 }
 
+// A spin box that lets a number outside its range be typed, then takes the nearest end of the range
+// and says what it did (Qt's own refuses the keystroke without a word: 5000000 became 500000).
+template <typename Base>
+class RangeSpinBox : public Base {
+ public:
+  using Value = decltype(std::declval<Base>().value());
+  std::function<void(double typed, Value taken)> clamped;
+
+  QValidator::State validate(QString& text, int& pos) const override {
+    const QValidator::State state = Base::validate(text, pos);
+    if (state != QValidator::Invalid) return state;
+    bool ok = false;
+    parse(text, &ok);
+    return ok ? QValidator::Intermediate : state;  // a number: out of range, fixed up when left
+  }
+  void fixup(QString& text) const override {
+    bool ok = false;
+    const double typed = parse(text, &ok);
+    if (ok && (typed < double(this->minimum()) || typed > double(this->maximum()))) {
+      const Value taken = typed < double(this->minimum()) ? this->minimum() : this->maximum();
+      text = this->textFromValue(taken);
+      if (clamped) clamped(typed, taken);
+      return;
+    }
+    Base::fixup(text);
+  }
+
+ private:
+  double parse(QString text, bool* ok) const {
+    text = text.trimmed();
+    if (!this->suffix().isEmpty() && text.endsWith(this->suffix().trimmed())) text.chop(this->suffix().trimmed().size());
+    return this->locale().toDouble(text.trimmed(), ok);
+  }
+};
+
 // A number's editor: its spin box (the unit as a suffix) with, for a bounded range, a slider kept in
 // step with it; `changed` gets every new value.
 template <typename SpinBox>
@@ -135,6 +170,19 @@ void ParamPanel::set(const std::string& name, const ParamValue& value) {
   emit changed(values_);
 }
 
+void ParamPanel::say_clamped(const ParamSpec& spec, double typed, double taken) {
+  const QString unit = spec.unit.empty() ? QString() : " " + QString::fromStdString(spec.unit);
+  const QString label = QString::fromStdString(spec.label.empty() ? spec.name : spec.label);
+  emit said(QString("%1: %2%3 is %4 the range %5 to %6%3, so %7%3 is used")
+                .arg(label)
+                .arg(typed, 0, 'g', 8)
+                .arg(unit)
+                .arg(typed > taken ? "above" : "below")
+                .arg(spec.min, 0, 'g', 8)
+                .arg(spec.max, 0, 'g', 8)
+                .arg(taken, 0, 'g', 8));
+}
+
 QWidget* ParamPanel::make_editor(const ParamSpec& spec) {
   const std::string name = spec.name;
   const ParamValue value = values_.get(name);
@@ -148,7 +196,9 @@ QWidget* ParamPanel::make_editor(const ParamSpec& spec) {
       break;
     }
     case ParamType::Int: {
-      auto* spin = new QSpinBox();
+      auto* spin = new RangeSpinBox<QSpinBox>();
+      spin->setCorrectionMode(QAbstractSpinBox::CorrectToNearestValue);
+      spin->clamped = [this, spec](double typed, int taken) { say_clamped(spec, typed, double(taken)); };
       const bool b = bounded(spec);
       spin->setRange(b ? int(spec.min) : -2147483647, b ? int(spec.max) : 2147483647);
       spin->setValue(int(std::get<long long>(value)));
@@ -156,7 +206,9 @@ QWidget* ParamPanel::make_editor(const ParamSpec& spec) {
       break;
     }
     case ParamType::Float: {
-      auto* spin = new QDoubleSpinBox();
+      auto* spin = new RangeSpinBox<QDoubleSpinBox>();
+      spin->setCorrectionMode(QAbstractSpinBox::CorrectToNearestValue);
+      spin->clamped = [this, spec](double typed, double taken) { say_clamped(spec, typed, taken); };
       const bool b = bounded(spec);
       spin->setDecimals(decimals_for(spec));
       spin->setRange(b ? spec.min : -1e12, b ? spec.max : 1e12);
@@ -247,9 +299,12 @@ ToolPanel::ToolPanel(const ToolRegistry& tools, QWidget* parent) : QWidget(paren
   layout->addLayout(grid);
   secondary_label_ = new QLabel(this);
   secondary_label_->setObjectName("secondary_tool");
+  secondary_label_->setWordWrap(true);
+  secondary_label_->setToolTip("Right-click a tool to put it on the right button");
   layout->addWidget(secondary_label_);
   panel_ = new ParamPanel(this);
   layout->addWidget(panel_, 1);
+  connect(panel_, &ParamPanel::said, this, &ToolPanel::said);
   connect(panel_, &ParamPanel::changed, this, [this](const ParamSet& p) {
     values_[primary_] = p;
     emit tool_changed(kButtonPrimary, primary_, p);
@@ -272,13 +327,17 @@ void ToolPanel::choose(const std::string& id, std::uint32_t button) {
   if (!tools_.has(id)) return;
   if (button == kButtonSecondary) {
     secondary_ = id;
+    // Put back on the primary's tool, the secondary follows it again.
+    secondary_chosen_ = id != primary_;
   } else {
     primary_ = id;
     if (auto* b = qobject_cast<QToolButton*>(this->button(id))) b->setChecked(true);
     panel_->show_tool(tools_.info(id), values_[id]);
-    if (secondary_.empty()) secondary_ = id;
+    if (!secondary_chosen_) secondary_ = id;
   }
-  secondary_label_->setText(QString("Right button: %1").arg(QString::fromStdString(tools_.info(secondary_).label)));
+  secondary_label_->setText(QString("Right button: %1%2")
+                                .arg(QString::fromStdString(tools_.info(secondary_).label))
+                                .arg(secondary_chosen_ ? "" : " (as the left)"));
   emit tool_changed(button, id, values_[id]);
   if (button == kButtonPrimary && secondary_ == id) emit tool_changed(kButtonSecondary, id, values_[id]);
 }

@@ -19,7 +19,8 @@ class QVBoxLayout;
 
 namespace kiji::studio {
 
-// The widgets of one tool's parameters.
+// The widgets of one tool's parameters. A number typed outside its range is taken at the nearest
+// end of the range, and the panel says so (said()).
 class ParamPanel : public QWidget {
   Q_OBJECT
  public:
@@ -32,9 +33,12 @@ class ParamPanel : public QWidget {
 
  signals:
   void changed(const kiji::ParamSet& values);
+  // A message for the user (a value typed out of range and what was taken instead).
+  void said(const QString& text);
 
  private:
   void set(const std::string& name, const ParamValue& value);
+  void say_clamped(const ParamSpec& spec, double typed, double taken);
   QWidget* make_editor(const ParamSpec& spec);
 
   ParamSet values_;
@@ -49,7 +53,8 @@ class ToolPanel : public QWidget {
   Q_OBJECT
  public:
   explicit ToolPanel(const ToolRegistry& tools, QWidget* parent = nullptr);
-  // Chooses the tool for a button (kButtonPrimary or kButtonSecondary).
+  // Chooses the tool for a button (kButtonPrimary or kButtonSecondary). The secondary button uses the
+  // primary's tool until a tool is put on it (a right-click on its button in the palette).
   void choose(const std::string& id, std::uint32_t button = 1);
   const std::string& primary() const { return primary_; }
   const std::string& secondary() const { return secondary_; }
@@ -61,10 +66,12 @@ class ToolPanel : public QWidget {
  signals:
   // A button's tool or its parameters changed.
   void tool_changed(std::uint32_t button, const std::string& id, const kiji::ParamSet& params);
+  void said(const QString& text);
 
  private:
   const ToolRegistry& tools_;
   std::string primary_, secondary_;
+  bool secondary_chosen_ = false;  // a tool was put on the secondary button: it no longer follows
   std::map<std::string, ParamSet> values_;  // each tool's parameters, kept while another is chosen
   QButtonGroup* group_;
   QLabel* secondary_label_;

@@ -25,6 +25,7 @@
 #include <QProcess>
 #include <QPushButton>
 #include <QSpinBox>
+#include <QStatusBar>
 #include <QtTest/QtTest>
 
 #include <atomic>
@@ -640,6 +641,88 @@ class StudioTest : public QObject {
     window_->grab_window().save(tmp_ + "/seam_sewn.png");
     action_named("&Undo")->trigger();
     QVERIFY(wait_until([&] { return border_loop_count() == 1; }));
+  }
+
+  // --- The small defects of issue 52, each as a user met it ---
+
+  void the_right_button_follows_the_chosen_tool_until_one_is_put_on_it() {
+    ToolPanel& panel = window_->tool_panel();
+    panel.choose("cut");
+    QCOMPARE(studio_->tool(kButtonSecondary), std::string("cut"));
+    QVERIFY(panel.findChild<QLabel*>("secondary_tool")->text().startsWith("Right button: Cut"));
+    panel.choose("paint");
+    QCOMPARE(studio_->tool(kButtonSecondary), std::string("paint"));
+    panel.choose("pin", kButtonSecondary);  // as the palette's right-click menu does
+    panel.choose("sew");
+    QCOMPARE(studio_->tool(kButtonPrimary), std::string("sew"));
+    QCOMPARE(studio_->tool(kButtonSecondary), std::string("pin"));
+    QVERIFY(panel.findChild<QLabel*>("secondary_tool")->text().startsWith("Right button: Pin"));
+  }
+
+  void a_value_typed_out_of_range_is_taken_at_the_limit_and_said() {
+    ToolPanel& panel = window_->tool_panel();
+    panel.choose("pinch");
+    auto* stiffness = panel.params().editor("stiffness")->findChild<QDoubleSpinBox*>("spin");
+    stiffness->setFocus();
+    stiffness->selectAll();
+    QTest::keyClicks(stiffness, "5000000");
+    QTest::keyClick(stiffness, Qt::Key_Tab);
+    QCOMPARE(stiffness->value(), 1e6);
+    const QString said = window_->statusBar()->currentMessage();
+    QVERIFY2(said.contains("5000000 N/m is above the range 0.01 to 1000000 N/m, so 1000000 N/m is used"), qPrintable(said));
+    QCOMPARE(std::get<double>(panel.params_of("pinch").get("stiffness")), 1e6);
+  }
+
+  void undo_goes_to_the_text_field_that_has_the_keyboard() {
+    hanging_square();
+    window_->tool_panel().choose("cut");
+    drag(Vec3(-0.7, 1.2, 0), Vec3(0.7, 1.2, 0), 30);
+    QVERIFY(wait_until([&] { return strokes() == 1 && pieces() == 2; }));
+    auto* input = window_->console().findChild<QLineEdit*>();
+    QVERIFY(input);
+    input->setFocus();
+    QTest::keyClicks(input, "session.garment_count");
+    QTest::keyClick(window_.get(), Qt::Key_Z, Qt::ControlModifier);
+    QTest::qWait(200);
+    QCOMPARE(input->text(), QString());  // the typing undone
+    QCOMPARE(pieces(), std::size_t(2));   // the cut not
+    window_->viewport().widget()->setFocus();
+    QTest::keyClick(window_.get(), Qt::Key_Z, Qt::ControlModifier);
+    QVERIFY(wait_until([&] { return pieces() == 1; }));
+  }
+
+  void drape_while_paused_drapes_and_says_so() {
+    hanging_square();  // paused
+    // The cloth below its pinned corners held out 30 cm in front: draped, it swings back down.
+    studio_->loop().call([](Session& s) {
+      Garment g = s.garment(0);
+      const double top = g.bounds().max().y();
+      for (Vertex w : g.mesh().vertices())
+        if (!g.pinned(w)) g.set_position(w, g.position(w) + Vec3(0, 0, 0.3 * (top - g.position(w).y())));
+      s.set_garment(0, g);
+    });
+    auto front = [&] { return with_session([](Session& s) { return s.garment(0).bounds().max().z(); }); };
+    const double before = front();
+    studio_->drape(0.5);
+    QVERIFY(wait_until([&] { return !studio_->draping(); }, 60000));
+    const double after = front();
+    QVERIFY2(after < before - 0.1, qPrintable(QString("the hem went from %1 m in front to %2 m").arg(before).arg(after)));
+    QVERIFY(!studio_->frame()->simulating);  // and paused again
+    QTest::qWait(50);
+    QVERIFY2(window_->statusBar()->currentMessage().contains("is paused again"),
+             qPrintable(window_->statusBar()->currentMessage()));
+  }
+
+  void error_messages_share_one_box_instead_of_stacking() {
+    for (int i = 0; i < 3; ++i) QVERIFY(!studio_->open_session(tmp_ + "/no-such-session.kiji"));
+    QTest::qWait(50);
+    int shown = 0;
+    for (QMessageBox* box : window_->findChildren<QMessageBox*>())
+      if (box->isVisible()) ++shown;
+    QCOMPARE(shown, 1);
+    auto* box = window_->findChild<QMessageBox*>("error_box");
+    QVERIFY(box && box->text().contains("3 messages"));
+    QVERIFY(!box->isModal());
   }
 
   // --- Depth and aim ---

@@ -141,6 +141,16 @@ void MainWindow::closeEvent(QCloseEvent* e) {
   QMainWindow::closeEvent(e);
 }
 
+void MainWindow::delete_selected_piece() {
+  const Viewport::Selection s = viewport_->selection();
+  if (s.garment < 0) {
+    on_message("Nothing is selected: Ctrl + click a piece of cloth first", false);
+    return;
+  }
+  viewport_->clear_selection();
+  studio_.remove_piece(s.garment, s.vertex);
+}
+
 void MainWindow::undo_or_redo(bool redo) {
   // A text field with the keyboard (the console's input, a parameter's box) takes its own undo.
   QWidget* focus = QApplication::focusWidget();
@@ -206,6 +216,11 @@ void MainWindow::build_menus() {
   undo_action_ = edit->addAction("&Undo", QKeySequence(Qt::CTRL | Qt::Key_Z), this, [this] { undo_or_redo(false); });
   redo_action_ =
       edit->addAction("&Redo", QKeySequence(Qt::CTRL | Qt::SHIFT | Qt::Key_Z), this, [this] { undo_or_redo(true); });
+  edit->addSeparator();
+  QAction* select = edit->addAction("&Select a piece: Ctrl + click it");
+  select->setEnabled(false);
+  QAction* remove = edit->addAction("&Delete the selected piece", this, &MainWindow::delete_selected_piece);
+  remove->setShortcuts({QKeySequence(Qt::Key_Delete), QKeySequence(Qt::Key_Backspace), QKeySequence(Qt::Key_X)});
 
   QMenu* view = menuBar()->addMenu("&View");
   view->addAction("&Frame all", QKeySequence(Qt::Key_F), viewport_, &Viewport::frame_all);
@@ -250,7 +265,7 @@ void MainWindow::build_menus() {
   QMenu* tools = menuBar()->addMenu("T&ools");
   const std::map<std::string, Qt::Key> preferred = {{"pinch", Qt::Key_P}, {"tear", Qt::Key_T}, {"cut", Qt::Key_C},
                                                     {"sew", Qt::Key_S}, {"paint", Qt::Key_B}, {"pin", Qt::Key_I}};
-  std::set<int> taken = {Qt::Key_F, Qt::Key_R};  // frame all; turn a seam
+  std::set<int> taken = {Qt::Key_F, Qt::Key_R, Qt::Key_X};  // frame all; turn a seam; delete a piece
   for (const auto& [id, key] : preferred)
     if (studio_.tools().has(id)) taken.insert(key);
   for (const std::string& id : studio_.tools().ids()) {

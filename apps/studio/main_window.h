@@ -42,6 +42,8 @@ class MainWindow : public QMainWindow {
   // The whole window, the view in it.
   QImage grab_window();
   void set_edge_display(EdgeDisplay mode);
+  // Removes the piece of cloth selected in the view (Ctrl + click), undoably.
+  void delete_selected_piece();
 
  protected:
   void closeEvent(QCloseEvent* e) override;

@@ -437,6 +437,20 @@ void SceneRenderer::draw_peers(const PeerView& peers, const OrbitCamera& camera,
 void SceneRenderer::draw_overlay(const Overlay& overlay, const Eigen::Matrix4f& vp) {
   gl_->glEnable(GL_BLEND);
   gl_->glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+  for (const OverlayTint& t : overlay.tints) {
+    if (t.garment >= garments_.size() || t.triangles.empty() || !garments_[t.garment]->vao) continue;
+    GarmentGpu& gpu = *garments_[t.garment];
+    gpu.vao->bind();
+    flat_.bind();
+    uniform(gl_, flat_, "view_projection", vp);
+    flat_.setUniformValue("point_size", 1.0f);
+    uniform(flat_, "color", t.colour);
+    flat_.setUniformValue("alpha", t.alpha);
+    fill(gpu.leased, t.triangles);
+    gl_->glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(t.triangles.size()), GL_UNSIGNED_INT, nullptr);
+    gpu.triangles.bind();  // the VAO's own index buffer back
+    gpu.vao->release();
+  }
   for (const OverlayLines& l : overlay.lines) {
     if (l.on_top) gl_->glDisable(GL_DEPTH_TEST);
     draw_lines(l.xyz, l.colour, vp, l.mode, l.size, l.alpha);

@@ -26,8 +26,8 @@ namespace kiji::studio {
 // around the pointer, or not at all.
 enum class EdgeDisplay { None, Local, All };
 
-// What the viewport draws over the scene to aim with: lines and points (a seam's sides and the pairs
-// it will join, the seams sewn, highlights).
+// What the viewport draws over the scene to aim with: lines and points (a pointer's drop line, a
+// trail, a seam's pairs, highlights), and garment faces tinted (a selected piece).
 struct OverlayLines {
   std::vector<float> xyz;
   Vec3 colour{1, 1, 1};
@@ -36,8 +36,15 @@ struct OverlayLines {
   float alpha = 1;
   bool on_top = false;     // drawn over whatever is in front of it
 };
+struct OverlayTint {
+  std::size_t garment = 0;
+  std::vector<std::uint32_t> triangles;  // render vertices, three a face
+  Vec3 colour{1, 1, 1};
+  float alpha = 0.5f;
+};
 struct Overlay {
   std::vector<OverlayLines> lines;
+  std::vector<OverlayTint> tints;
 };
 
 struct DrawOptions {

@@ -10,6 +10,8 @@
 #include <QFileInfo>
 #include <QStandardPaths>
 
+#include <set>
+
 namespace kiji::studio {
 
 QString device_kind_name(DeviceKind kind) {
@@ -248,6 +250,55 @@ bool Studio::sew_seam(int garment, const std::vector<std::uint32_t>& first, cons
     return fail("The seam was not sewn (the garment is as it was)", e);
   }
   emit message(QString("Sewn: a seam of %1 pairs (Ctrl+Z takes it out)").arg(pairs), false);
+  return true;
+}
+
+bool Studio::remove_piece(int garment, std::uint32_t vertex) {
+  std::size_t faces = 0;
+  bool whole = false;
+  try {
+    loop_->call([&](Session& s) {
+      if (garment < 0 || std::size_t(garment) >= s.garment_count()) throw InputError("the garment picked is gone");
+      Garment g = s.garment(std::size_t(garment));
+      const Mesh& m = g.mesh();
+      const Vertex start(vertex);
+      if (vertex >= g.vertex_capacity() || m.is_removed(start) || m.is_isolated(start))
+        throw InputError("the piece picked is gone (the garment changed meanwhile): pick it again");
+      if (g.count_pieces() < 2) {
+        whole = true;
+        faces = m.number_of_faces();
+        s.remove_garment(std::size_t(garment));
+        return;
+      }
+      // The piece: faces reached from the vertex's across shared edges.
+      std::set<Face> piece;
+      std::vector<Face> stack;
+      for (Face f : CGAL::faces_around_target(m.halfedge(start), m))
+        if (f != Mesh::null_face() && piece.insert(f).second) stack.push_back(f);
+      while (!stack.empty()) {
+        const Face f = stack.back();
+        stack.pop_back();
+        for (Halfedge h : CGAL::halfedges_around_face(m.halfedge(f), m)) {
+          const Face n = m.face(m.opposite(h));
+          if (n != Mesh::null_face() && piece.insert(n).second) stack.push_back(n);
+        }
+      }
+      std::vector<Edge> edges;
+      for (Face f : piece)
+        for (Halfedge h : CGAL::halfedges_around_face(m.halfedge(f), m)) edges.push_back(m.edge(h));
+      std::sort(edges.begin(), edges.end());
+      edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+      faces = piece.size();
+      remove_edges(g, edges);
+      s.set_garment(std::size_t(garment), g);
+    });
+  } catch (const std::exception& e) {
+    return fail("The piece was not removed", e);
+  }
+  emit message(whole ? QString("Removed the garment (%1 faces; Ctrl+Z brings it back)").arg(faces)
+                     : QString("Removed a piece of %1 faces (Ctrl+Z brings it back)").arg(faces),
+               false);
+  emit scene_changed();
   return true;
 }
 

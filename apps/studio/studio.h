@@ -57,6 +57,9 @@ class Studio : public QObject {
   // so on) with the sew tool, as one stroke: the first side traced with the primary button, the
   // second with the secondary.
   bool sew_seam(int garment, const std::vector<std::uint32_t>& first, const std::vector<std::uint32_t>& second);
+  // Removes the piece of cloth that a vertex belongs to (the whole garment if it is one piece): an
+  // edit of the undo history.
+  bool remove_piece(int garment, std::uint32_t vertex);
 
   // --- Simulation ---
   void set_simulating(bool on);

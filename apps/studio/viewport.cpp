@@ -23,7 +23,7 @@ constexpr double kAboveCloth = 0.002;
 constexpr double kBorderReach = 14;
 // Colours of what the view draws to aim with.
 const Vec3 kFirstSide(0.15, 0.45, 1.0), kSecondSide(1.0, 0.5, 0.05), kPairs(0.1, 0.75, 0.3);
-const Vec3 kReach(1.0, 0.85, 0.1), kSewn(1.0, 0.97, 0.8), kDrop(0.2, 0.22, 0.3);
+const Vec3 kReach(1.0, 0.85, 0.1), kSewn(1.0, 0.97, 0.8), kSelected(0.25, 0.6, 1.0), kDrop(0.2, 0.22, 0.3);
 
 void push(std::vector<float>& xyz, const Vec3& p) { xyz.insert(xyz.end(), {float(p.x()), float(p.y()), float(p.z())}); }
 
@@ -211,6 +211,23 @@ void Viewport::build_overlay(const SceneFrame& frame, Overlay& overlay, std::vec
       push(stitches.xyz, lifted(pa + 0.85 * (pb - pa)));
     }
     overlay.lines.push_back(std::move(stitches));
+  }
+
+  // The piece selected.
+  if (selection_.garment >= 0) {
+    const GarmentShape* shape = shapes_.get(frame, std::size_t(selection_.garment));
+    int piece = -1;
+    if (shape && selection_.vertex < shape->render_of.size() && shape->render_of[selection_.vertex] != kNone) {
+      const auto& t = shape->topology->triangles;
+      for (std::size_t f = 0; f < shape->piece_of_triangle.size() && piece < 0; ++f)
+        for (int c = 0; c < 3; ++c)
+          if (shape->topology->mesh_vertex[t[3 * f + c]] == selection_.vertex) piece = shape->piece_of_triangle[f];
+    }
+    if (piece < 0) {
+      clear_selection();
+    } else {
+      overlay.tints.push_back({std::size_t(selection_.garment), shape->piece_triangles(piece), kSelected, 0.45f});
+    }
   }
 
   const bool seam = seam_mode();
@@ -473,6 +490,14 @@ bool Viewport::sew_picked_seam() {
   return studio_.sew_seam(garment, first, second);
 }
 
+void Viewport::clear_selection() {
+  if (selection_.garment < 0) return;
+  selection_ = {};
+  dirty_ = true;
+  say({});
+  emit selection_changed();
+}
+
 void Viewport::set_view(View view) {
   switch (view) {
     case View::Front: camera_.yaw = 0, camera_.pitch = 0.1; break;
@@ -579,6 +604,22 @@ void Viewport::mousePressEvent(QMouseEvent* e) {
   }
   if (drag_ != Drag::None) return;
   const auto frame = studio_.frame();
+  if (e->button() == Qt::LeftButton && (e->modifiers() & Qt::ControlModifier)) {
+    // Ctrl + click: the piece of cloth under the cursor is selected (Delete removes it).
+    selection_ = {};
+    if (frame) {
+      const RayHit h = cast_ray(*frame, camera_.eye(), cursor_ray(e->position()), false);
+      const GarmentShape* shape = h.hit ? shapes_.get(*frame, std::size_t(h.garment)) : nullptr;
+      if (shape) {
+        selection_ = {h.garment, shape->topology->mesh_vertex[shape->topology->triangles[3 * h.triangle]]};
+        say("A piece is selected: Delete removes it (Esc: none)");
+      }
+    }
+    if (selection_.garment < 0) say({});
+    dirty_ = true;
+    emit selection_changed();
+    return;
+  }
   if (seam_mode() && frame) {
     if (e->button() == Qt::RightButton) {
       seams_.flip();
@@ -723,6 +764,7 @@ void Viewport::keyPressEvent(QKeyEvent* e) {
     case Qt::Key_7: set_view(View::Top); return;
     case Qt::Key_Escape:
       seams_.clear();
+      clear_selection();
       dirty_ = true;
       return;
     case Qt::Key_Return:

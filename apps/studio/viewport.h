@@ -6,7 +6,8 @@
 //    off the cloth, on a plane facing the camera;
 //  - while a stroke holds cloth (pinch, tear, a sewn vertex), it moves on the plane through the
 //    grabbed point facing the camera, and the wheel moves that plane nearer or farther.
-// Left button: the primary tool; right button: the secondary one.
+// Left button: the primary tool; right button: the secondary one. Ctrl + left click selects the
+// piece of cloth under the cursor.
 //
 // So that a press lands where the user means, it draws a drop line and a shadow from the pointer to
 // the cloth or body below it, what a press would act on (the tool's reach on the cloth; the border
@@ -69,6 +70,13 @@ class Viewport : public QOpenGLWindow {
   SeamPicker& seam_picker() { return seams_; }
   // Sews the seam picked (both sides); false if there is none or it was refused.
   bool sew_picked_seam();
+  // The piece of cloth selected with Ctrl + click (garment -1: none) and a vertex of it.
+  struct Selection {
+    int garment = -1;
+    std::uint32_t vertex = kNone;
+  };
+  const Selection& selection() const { return selection_; }
+  void clear_selection();
   // The trail of the stroke in progress or the last one (world points on the cloth).
   const std::vector<Vec3>& trail() const { return trail_; }
   // Where the drop line from the pointer lands (the cloth or body below it, else the floor), if the
@@ -82,6 +90,7 @@ class Viewport : public QOpenGLWindow {
   void gl_failed(const QString& why);
   // What a press would do now (for the status bar); empty for nothing to say.
   void hint(const QString& text);
+  void selection_changed();
 
  protected:
   void initializeGL() override;
@@ -146,6 +155,7 @@ class Viewport : public QOpenGLWindow {
   SeamPicker seams_;
   bool picking_ = false;
   std::uint32_t phantom_buttons_ = 0;
+  Selection selection_;
   std::vector<Vec3> trail_;
   bool trail_live_ = false;
   std::uint32_t sewn_vertex_ = kNone;  // the border vertex a sew stroke drags

@@ -725,6 +725,28 @@ class StudioTest : public QObject {
     QVERIFY(!box->isModal());
   }
 
+  // --- A piece of cloth deleted ---
+
+  void a_piece_selected_with_ctrl_click_is_deleted_and_comes_back_with_undo() {
+    hanging_square();
+    window_->tool_panel().choose("cut");
+    drag(Vec3(-0.7, 1.2, 0), Vec3(0.7, 1.2, 0), 30);
+    QVERIFY(wait_until([&] { return pieces() == 2; }));
+    const std::size_t faces = studio_->frame()->faces;
+    Viewport& v = window_->viewport();
+    QTest::mouseClick(&v, Qt::LeftButton, Qt::ControlModifier, v.project(Vec3(0, 1.0, 0)).toPoint());
+    QVERIFY(v.selection().garment == 0);
+    QTest::qWait(100);
+    window_->grab_window().save(tmp_ + "/piece_selected.png");  // to look at
+    QTest::keyClick(window_.get(), Qt::Key_Delete);
+    QVERIFY(wait_until([&] { return pieces() == 1; }));
+    QVERIFY(studio_->frame()->faces < faces);
+    // The piece left is the upper one.
+    QVERIFY(with_session([](Session& s) { return s.garment(0).bounds().min().y(); }) > 1.15);
+    QTest::keyClick(window_.get(), Qt::Key_Z, Qt::ControlModifier);
+    QVERIFY(wait_until([&] { return pieces() == 2; }));
+  }
+
   // --- Depth and aim ---
 
   void views_are_on_keys_and_the_wheel_zooms_towards_the_cursor() {

@@ -439,6 +439,7 @@ HapticStats haptics(const Body& body, int vertices, double seconds, std::shared_
   ParamSet p = s.params_for("pinch", {{"stiffness", 100.0}});
   ToolEvent e;
   e.phase = Phase::Begin;
+  e.time = s.time();
   e.position = grab;
   s.apply("pinch", e, &p);
   ScriptedDevice device([&](double t) {

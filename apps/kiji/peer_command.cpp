@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <optional>
@@ -162,7 +163,9 @@ int peer_command(const std::vector<std::string>& argv) {
       while (next < events.size() && replay_start + events[next].at <= session.time() + 0.05) {
         const ReplayEvent& e = events[next++];
         ToolEvent event = e.stroke->events[e.index];
-        event.time = replay_start + e.at;
+        // Its time on the shared clock, or now if the clock passed it while this loop waited: an
+        // event before the clock is refused.
+        event.time = std::max(replay_start + e.at, session.time());
         const ParamSet params = session.params_for(e.stroke->tool, e.stroke->params);
         try {
           session.apply(e.stroke->tool, event, &params);

@@ -119,14 +119,14 @@ py::array_t<double> run_stroke(Session& s, const std::string& tool_id, const Par
     try {
       for (std::size_t i = 0; i < stroke.size(); ++i) {
         if (i > 0 && s.stroke_tool().empty()) break;  // an End or Cancel closed it (stroke_tool: shared too)
-        forces[i] = s.apply(tool, stroke[i], &params).force;
+        forces[i] = s.apply(tool, at_the_clock(stroke[i], s.time()), &params).force;
         if (!hook(double(i + 1) / double(stroke.size()))) {
           if (!s.stroke_tool().empty()) s.apply(tool, ToolEvent{Phase::Cancel, s.time()});
           break;
         }
       }
       if (!s.stroke_tool().empty()) {  // a stroke without End ends where it stops, as a released button
-        ToolEvent end = stroke.back();
+        ToolEvent end = at_the_clock(stroke.back(), s.time());
         end.phase = Phase::End;
         s.apply(tool, end, &params);
       }
@@ -215,13 +215,13 @@ void bind_session(py::module_& m) {
 
   // --- events ---
   py::class_<ToolEvent>(m, "ToolEvent", "One pointer sample of a stroke, as a tool receives it.")
-      .def(py::init([](const std::string& phase, py::handle position, double time, std::uint32_t buttons,
-                       double pressure, py::handle ray, py::handle orientation) {
+      .def(py::init([](const std::string& phase, py::handle position, std::optional<double> time,
+                       std::uint32_t buttons, double pressure, py::handle ray, py::handle orientation) {
              ToolEvent e;
              e.phase = parse_phase(phase);
              e.position = to_vec3(position, "position");
-             if (!std::isfinite(time)) throw InputError("event time is not a finite number");
-             e.time = time;
+             if (time && !std::isfinite(*time)) throw InputError("event time is not a finite number");
+             e.time = time ? *time : kAtTheClock;
              e.buttons = buttons;
              if (!(pressure >= 0 && pressure <= 1)) throw InputError("pressure must be in [0, 1]");
              e.pressure = pressure;
@@ -232,10 +232,15 @@ void bind_session(py::module_& m) {
              }
              return e;
            }),
-           py::arg("phase"), py::arg("position"), py::arg("time") = 0.0, py::arg("buttons") = 1,
-           py::arg("pressure") = 1.0, py::arg("ray") = py::none(), py::arg("orientation") = py::none())
+           py::arg("phase"), py::arg("position"), py::arg("time") = py::none(), py::arg("buttons") = 1,
+           py::arg("pressure") = 1.0, py::arg("ray") = py::none(), py::arg("orientation") = py::none(),
+           "time: seconds on the session's clock, not before it; None (the default): the clock's time when\n"
+           "the session applies the event.")
       .def_property_readonly("phase", [](const ToolEvent& e) { return std::string(phase_name(e.phase)); })
-      .def_readonly("time", &ToolEvent::time)
+      .def_property_readonly("time", [](const ToolEvent& e) -> py::object {
+        if (std::isnan(e.time)) return py::none();
+        return py::float_(e.time);
+      }, "Seconds on the session's clock; None: when the session applies it.")
       .def_property_readonly("position", [](const ToolEvent& e) { return vec3_array(e.position); })
       .def_readonly("buttons", &ToolEvent::buttons)
       .def_readonly("pressure", &ToolEvent::pressure)
@@ -245,7 +250,8 @@ void bind_session(py::module_& m) {
         return py::make_tuple(q.w(), q.x(), q.y(), q.z());
       })
       .def("__repr__", [](const ToolEvent& e) {
-        return "ToolEvent('" + std::string(phase_name(e.phase)) + "', time=" + std::to_string(e.time) + ")";
+        return "ToolEvent('" + std::string(phase_name(e.phase)) +
+               "', time=" + (std::isnan(e.time) ? std::string("None") : std::to_string(e.time)) + ")";
       });
 
   py::class_<SurfaceHit>(m, "SurfaceHit", "The cloth under a pointer.")
@@ -261,6 +267,10 @@ void bind_session(py::module_& m) {
 
   py::class_<JournalStroke>(m, "JournalStroke", "One stroke of a journal: tool, parameters, events.")
       .def(py::init([](const std::string& tool, const py::dict& params, const std::vector<ToolEvent>& events) {
+             for (const ToolEvent& e : events)
+               if (std::isnan(e.time))
+                 throw InputError("a journal stroke's events need their times: make them with kiji.ToolEvent(phase, "
+                                  "position, time=seconds)");
              return JournalStroke{tool, param_map_from_python(params), events};
            }),
            py::arg("tool"), py::arg("params"), py::arg("events"))

@@ -11,7 +11,9 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <cmath>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -156,6 +158,13 @@ class PyHandle {
   std::shared_ptr<py::object> obj_;
 };
 
+// The time of a kiji.ToolEvent made without one: the session's clock when it is applied (NaN never
+// reaches the session: at_the_clock replaces it).
+inline const double kAtTheClock = std::numeric_limits<double>::quiet_NaN();
+inline ToolEvent at_the_clock(ToolEvent e, double clock) {
+  if (std::isnan(e.time)) e.time = clock;
+  return e;
+}
 // A ToolEvent from Python: a kiji.ToolEvent (whose phase must be `phase`) or a pointer position
 // (3,), at `time` (default: the session's clock).
 ToolEvent event_arg(py::handle event, Phase phase, double default_time);

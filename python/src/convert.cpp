@@ -232,7 +232,7 @@ Phase parse_phase(const std::string& name) {
 ToolEvent event_arg(py::handle event, Phase phase, double default_time) {
   ToolEvent e;
   if (py::isinstance<ToolEvent>(event)) {
-    e = event.cast<ToolEvent>();
+    e = at_the_clock(event.cast<ToolEvent>(), default_time);
     if (e.phase != phase) {
       const auto article = [](Phase p) { return p == Phase::End ? "an '" : "a '"; };
       throw InputError(std::string("expected ") + article(phase) + phase_name(phase) + "' event, not " +

@@ -173,10 +173,15 @@ TEST(Pinch, TakesThePatchUnderTheFingertipAndFeelsAllOfIt) {
 
   // A grab radius of 0 takes the nearest vertex alone, as the paper did; so does the default
   // radius on a mesh coarser than it (vertices 5 cm apart).
+  // Those events at the clock's time, which has gone past the stroke's.
+  const auto now = [&](ToolEvent e) {
+    e.time = s.time();
+    return e;
+  };
   ParamSet one = s.params_for("pinch", {{"grab_radius", 0.0}});
-  s.apply("pinch", stroke[0], &one);
+  s.apply("pinch", now(stroke[0]), &one);
   EXPECT_EQ(s.solver(0).attachment_count(), 1u);
-  s.apply("pinch", stroke.back(), &one);
+  s.apply("pinch", now(stroke.back()), &one);
   auto coarse = flat_session(1.0, 1.0, 21, 21);
   const ParamSet defaults = coarse->params_for("pinch");
   coarse->apply("pinch", stroke[0], &defaults);

@@ -94,6 +94,24 @@ def test_bad_events_are_refused_with_what_to_do_and_change_nothing():
     s.end((0.5, 0.5, 0.0))
 
 
+def test_an_event_without_a_time_is_now_and_one_before_the_clock_is_refused():
+    s, g = flat_session(1, 1, 11, 11)
+    s.step(30)
+    assert kiji.ToolEvent("begin", (0.5, 0.5, 0.0)).time is None
+    s.begin("pinch", kiji.ToolEvent("begin", (0.5, 0.5, 0.0)))  # at the clock: 0.5 s
+    s.update(kiji.ToolEvent("move", (0.5, 0.5, 0.05)))
+    s.end(kiji.ToolEvent("end", (0.5, 0.5, 0.05)))
+    assert s.history[-1].events[0].time == pytest.approx(0.5)
+    n = s.operation_count
+    with pytest.raises(kiji.InputError, match=r"its time -5 s is before the session's clock \(0.5 s"):
+        s.begin("pinch", kiji.ToolEvent("begin", (0.5, 0.5, 0.0), time=-5))
+    with pytest.raises(kiji.InputError, match="outside the world's bounds"):
+        s.begin("pinch", (1e308, 0.5, 0.0))
+    with pytest.raises(kiji.InputError, match="journal stroke's events need their times"):
+        kiji.JournalStroke("pinch", {}, [kiji.ToolEvent("begin", (0.5, 0.5, 0.0))])
+    assert s.operation_count == n and not s.stroke_active
+
+
 def test_an_interactive_stroke_replays_on_a_new_session(tmp_path):
     s, g = flat_session(1, 1, 11, 11)
     s.begin("pinch", (0.5, 0.5, 0.0))

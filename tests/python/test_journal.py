@@ -98,6 +98,20 @@ def test_bad_journal_files_are_clear_errors(tmp_path):
                                                   "buttons": -5}]}]}))
     with pytest.raises(kiji.InputError, match="'buttons' is not a whole number"):
         s.replay(str(p))
+    # What a damaged disk or a peer could hand over, each refused with the reason.
+    def event(**fields):
+        e = {"phase": "begin", "time": 0, "position": [0, 0, 0]}
+        e.update(fields)
+        p.write_text(json.dumps({"format": "kiji-journal", "version": 1, "strokes": [
+            {"tool": "cut", "params": {}, "events": [e]}]}))
+        return str(p)
+    with pytest.raises(kiji.InputError, match=r"event 0: the event's orientation \(0, 0, 0, 0\) is not a unit"):
+        s.replay(event(orientation=[0, 0, 0, 0]))
+    with pytest.raises(kiji.InputError, match=r"position \(1e\+308, 0, 0\) is outside the world's bounds"):
+        s.replay(event(position=[1e308, 0, 0]))
+    with pytest.raises(kiji.InputError, match="'pressure' is not between 0 and 1"):
+        s.replay(event(pressure=1.5))
+    assert s.journal == []
 
 
 def every_kind_of_change(s):

@@ -23,6 +23,10 @@ struct DecodeLimits {
   std::size_t max_texture_side = 16384;
   std::size_t max_string = 4096;
   std::size_t max_params = 256;
+  // The world's bounds: how far from the origin, along each axis, a pointer (a tool event's position
+  // and ray) or a solver's local centre may be, in metres. A person designs within a room; a
+  // kilometre leaves room to spare, and a value past it is damage, not a design.
+  double world_extent = 1000;
 };
 
 // A garment's whole state (mesh with every property, material, texture, tacks, and where its cloth

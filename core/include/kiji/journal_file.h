@@ -77,9 +77,10 @@ std::vector<JournalStroke> load_journal(const std::string& path);
 // stop (a stroke in progress is cancelled, so nothing is half-applied).
 using ReplayProgress = std::function<bool(std::size_t done, std::size_t total)>;
 
-// Runs strokes, in order, through session.apply(). Returns the number of strokes finished. Throws
-// InputError, before changing anything, if a stroke names a tool the session does not have or a
-// bad parameter.
+// Runs strokes, in order, through session.apply(), at their times: from the session's clock on
+// where the first stroke began before it (the strokes keep their times apart). Returns the number
+// of strokes finished. Throws InputError, before changing anything, if a stroke names a tool the
+// session does not have or a bad parameter.
 std::size_t replay(Session& session, const std::vector<JournalStroke>& strokes, const ReplayProgress& progress = {});
 // Performs operations, in order, on a new session or one whose own log is a beginning of them (a
 // session set up with the same operations: those are skipped). Returns the number of operations the

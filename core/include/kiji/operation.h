@@ -102,10 +102,27 @@ const char* operation_kind(const OperationData& data);
 // completes): tool strokes, adding, removing and setting garments.
 bool changes_garments(const OperationData& data);
 
+// --- checks ---
+// How far an orientation's squared length may be from 1: a device's rotation in single precision
+// is well within it, a quaternion of zeros or of garbage is not.
+constexpr double kOrientationTolerance = 1e-3;
+// Every field of a tool event that can be checked without a session: the time a finite number, the
+// position and ray finite and within the world's bounds (limits.world_extent), the orientation a
+// unit quaternion (within kOrientationTolerance), the pressure from 0 to 1. Throws InputError naming
+// the field and what it must be. (Whether the time is before the session's clock is the session's
+// check: see Session::apply.)
+void check_tool_event(const ToolEvent& event, const DecodeLimits& limits = {});
+// Every field of an operation that can be checked without a session: its tool event (above), a
+// frame rate from 1 to 10,000, a pick radius above 0 and at most 10 m, solver parameters in range
+// with their local centre within the world's bounds and gravity at most 1,000 m/s^2. Throws
+// InputError naming the field. Decoders, the journal reader and Session::perform call it, so an
+// operation is checked before it is applied wherever it came from.
+void check_operation(const Operation& op, const DecodeLimits& limits = {});
+
 // --- binary forms (garments and bodies: kiji/codec.h) ---
 std::string encode_operation(const Operation& op);
 // Throws InputError saying what is malformed (and at which byte) for bytes that are not a whole,
-// valid operation of a version this Kiji reads.
+// valid operation of a version this Kiji reads, or whose fields are out of range (check_operation).
 Operation decode_operation(std::string_view bytes, const DecodeLimits& limits = {});
 
 }  // namespace kiji

@@ -68,6 +68,8 @@ class Session {
   // max_advance_seconds ahead, which would not end in any useful time.
   void advance_to(double t);
   static constexpr double max_advance_seconds = 3600;
+  // Times this close are the same instant on the clock (sums of 1 / frame_rate round).
+  static constexpr double kClockTolerance = 1e-9;
   // Whether time steps the cloth (false: tools still edit, nothing falls; the clock runs).
   bool simulating() const { return simulating_; }
   void set_simulating(bool simulating);
@@ -85,7 +87,8 @@ class Session {
   // Checked parameter values for a tool: its defaults overridden by `values`.
   ParamSet params_for(const std::string& tool, const std::map<std::string, ParamValue>& values = {}) const;
 
-  // The one path every tool event takes: advances the clock to the event's time, fills in the
+  // The one path every tool event takes: checks the event (check_tool_event, and a time not before
+  // the clock), advances the clock to the event's time, fills in the
   // surface hit, calls the tool, and journals it. Each user has at most one stroke in progress and
   // its own instance of each tool. Begin starts a stroke (snapshotting the garments), End finishes
   // it (a step of the undo history), Cancel restores the garments as they were at its Begin. If the
@@ -112,7 +115,8 @@ class Session {
   // Applies an operation as the session would have made it: steps the clock to op.step first (no
   // further than max_advance_seconds), then applies it for op.user. What replay, recovery and
   // peers call. Throws InputError (and changes nothing) for an operation that cannot apply here:
-  // a garment index that does not exist, bad bytes, a tool the session does not have.
+  // a field out of range (check_operation, before the clock moves), a garment index that does not
+  // exist, bad bytes, a tool the session does not have, an event before the clock.
   Feedback perform(const Operation& op);
   // Called after each operation is applied and logged, on the thread that applied it (autosave,
   // peers). Returns an id for remove_listener. A listener's error reaches the caller of the
@@ -160,6 +164,7 @@ class Session {
 
  private:
   struct ActiveStroke;
+  void check_event(const op::ToolInput& input) const;
   GarmentSnapshot snapshot() const;
   void restore(const GarmentSnapshot& snapshot);
   void advance_to_step(std::uint64_t step);

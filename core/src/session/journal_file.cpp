@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <fstream>
 #include <sstream>
 
@@ -186,6 +187,11 @@ ToolEvent parse_event(const json& je, const Reader& r) {
     if (e.pressure < 0 || e.pressure > 1) r.fail("'pressure' is not between 0 and 1");
   }
   if (je.contains("ray")) e.ray = r.vec3(je, "ray");
+  try {
+    check_tool_event(e);
+  } catch (const InputError& error) {
+    r.fail(error.what());
+  }
   return e;
 }
 
@@ -305,6 +311,11 @@ Operation parse_operation(const json& j, const Reader& r) {
     op.data = op::Checkpoint{payload("state")};
   } else {
     r.fail("unknown kind '" + kind + "'");
+  }
+  try {
+    check_operation(op);
+  } catch (const InputError& error) {
+    r.fail(error.what());
   }
   return op;
 }
@@ -484,10 +495,15 @@ std::size_t replay(Session& session, const std::vector<JournalStroke>& strokes, 
   for (const JournalStroke& s : strokes) params.push_back(session.params_for(s.tool, s.params));
   std::size_t total = 0, done = 0, finished = 0;
   for (const JournalStroke& s : strokes) total += s.events.size();
+  // Strokes recorded on another clock start now where they began earlier, a time apart as they were.
+  double shift = 0;
+  if (!strokes.empty() && !strokes.front().events.empty())
+    shift = std::max(0.0, session.time() - strokes.front().events.front().time);
   for (std::size_t i = 0; i < strokes.size(); ++i) {
     const JournalStroke& s = strokes[i];
     Tool& tool = session.tool(s.tool);
-    for (const ToolEvent& e : s.events) {
+    for (ToolEvent e : s.events) {
+      e.time += shift;
       session.apply(tool, e, &params[i]);
       ++done;
       bool go = true;
@@ -506,6 +522,7 @@ std::size_t replay(Session& session, const std::vector<JournalStroke>& strokes, 
     if (session.stroke_active()) {  // a stroke that stops without End is finished, as in Session::run
       ToolEvent end = s.events.back();
       end.phase = Phase::End;
+      end.time += shift;
       session.apply(tool, end, &params[i]);
     }
     ++finished;

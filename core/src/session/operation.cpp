@@ -2,8 +2,11 @@
 
 #include "base/archive.h"
 #include "base/overloaded.h"
+#include "kiji/error.h"
 
 #include <array>
+#include <cmath>
+#include <sstream>
 #include <type_traits>
 
 namespace kiji {
@@ -147,7 +150,74 @@ void fields(A& a, Field<A, Operation>& op, const DecodeLimits& limits) {
   a.end(" after the operation");
 }
 
+std::string vector_text(const Vec3& v) {
+  std::ostringstream o;
+  o << "(" << v.x() << ", " << v.y() << ", " << v.z() << ")";
+  return o.str();
+}
+
+// A point within the world's bounds: finite, and no further than `extent` from the origin on any axis.
+void check_within_world(const Vec3& p, const char* what, double extent) {
+  if (!all_finite(p)) throw InputError(std::string(what) + " " + vector_text(p) + " is not finite");
+  if (p.cwiseAbs().maxCoeff() > extent) {
+    std::ostringstream o;
+    o << what << " " << vector_text(p) << " is outside the world's bounds (" << extent
+      << " m from the origin on each axis)";
+    throw InputError(o.str());
+  }
+}
+
 }  // namespace
+
+void check_tool_event(const ToolEvent& e, const DecodeLimits& limits) {
+  if (!std::isfinite(e.time)) throw InputError("the event's time is not a finite number");
+  check_within_world(e.position, "the event's position", limits.world_extent);
+  check_within_world(e.ray, "the event's ray", limits.world_extent);
+  const auto& q = e.orientation;
+  if (!q.coeffs().allFinite()) throw InputError("the event's orientation is not finite");
+  const double n2 = q.squaredNorm();
+  if (!(std::abs(n2 - 1) <= kOrientationTolerance)) {
+    std::ostringstream o;
+    o << "the event's orientation (" << q.w() << ", " << q.x() << ", " << q.y() << ", " << q.z()
+      << ") is not a unit quaternion (its length is " << std::sqrt(n2) << "): give (w, x, y, z) of length 1";
+    throw InputError(o.str());
+  }
+  if (!(e.pressure >= 0 && e.pressure <= 1)) {
+    std::ostringstream o;
+    o << "the event's pressure is " << e.pressure << ": it must be from 0 to 1";
+    throw InputError(o.str());
+  }
+}
+
+void check_operation(const Operation& op, const DecodeLimits& limits) {
+  std::visit(Overloaded{[&](const op::ToolInput& t) {
+                          if (t.tool.empty()) throw InputError("a tool event names no tool");
+                          check_tool_event(t.event, limits);
+                        },
+                        [&](const op::SetSolverParams& p) {
+                          p.params.validate();
+                          check_within_world(p.params.local_center, "the solver's local_center", limits.world_extent);
+                          if (!(p.params.gravity.norm() <= 1000))
+                            throw InputError("the solver's gravity " + vector_text(p.params.gravity) +
+                                             " is over 1000 m/s^2 (100 g)");
+                        },
+                        [&](const op::SetFrameRate& f) {
+                          if (!(f.steps_per_second >= 1 && f.steps_per_second <= 10000)) {
+                            std::ostringstream o;
+                            o << "the frame rate is " << f.steps_per_second << ": use 1 to 10000 steps a second";
+                            throw InputError(o.str());
+                          }
+                        },
+                        [&](const op::SetPickRadius& p) {
+                          if (!(p.radius > 0 && p.radius <= 10)) {
+                            std::ostringstream o;
+                            o << "the pick radius is " << p.radius << " m: use more than 0 and at most 10 m";
+                            throw InputError(o.str());
+                          }
+                        },
+                        [&](const auto&) {}},
+             op.data);
+}
 
 const char* operation_kind(const OperationData& data) {
   return std::visit(Overloaded{[](const op::ToolInput&) { return "tool"; },
@@ -181,6 +251,11 @@ Operation decode_operation(std::string_view bytes, const DecodeLimits& limits) {
   detail::ReadArchive a(bytes, "operation");
   Operation op;
   fields(a, op, limits);
+  try {
+    check_operation(op, limits);
+  } catch (const InputError& e) {
+    throw InputError(std::string("operation: ") + e.what());
+  }
   return op;
 }
 

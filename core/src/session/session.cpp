@@ -144,7 +144,7 @@ void Session::advance_to(double t) {
     throw InputError(msg.str());
   }
   // A small tolerance so that t = n / frame_rate does not take an extra step to rounding.
-  while (time_ + 1e-9 < t) simulate_step();
+  while (time_ + kClockTolerance < t) simulate_step();
 }
 
 void Session::advance_to_step(std::uint64_t step) {
@@ -156,6 +156,24 @@ void Session::advance_to_step(std::uint64_t step) {
                      std::to_string(int(max_advance_seconds)) + " s after the session's step " +
                      std::to_string(steps_));
   while (steps_ < step) simulate_step();
+}
+
+void Session::check_event(const op::ToolInput& input) const {
+  try {
+    check_tool_event(input.event);
+  } catch (const InputError& e) {
+    throw InputError("a '" + input.tool + "' event was refused: " + e.what());
+  }
+  // The clock moves a step at a time, so events a device samples faster than that come within the
+  // step just taken; one before it belongs to a step that has passed, and would rewrite the past.
+  const double step_before = time_ - 1.0 / frame_rate_;
+  if (input.event.time < step_before - kClockTolerance) {
+    std::ostringstream msg;
+    msg << "a '" << input.tool << "' event was refused: its time " << input.event.time
+        << " s is before the session's clock (" << time_ << " s, and its last step began at " << step_before
+        << " s): an event comes at the clock's time or later";
+    throw InputError(msg.str());
+  }
 }
 
 // --- picking and tools ---
@@ -225,9 +243,7 @@ Feedback Session::apply(Tool& tool, const ToolEvent& event, const ParamSet* para
   if (event.phase == Phase::Begin && params) input.params = params->values();
   if (gate_) {
     const ToolEvent& e = input.event;
-    if (!all_finite(e.position) || !all_finite(e.ray) || !std::isfinite(e.time) || !std::isfinite(e.pressure) ||
-        !e.orientation.coeffs().allFinite() || !(e.pressure >= 0 && e.pressure <= 1))
-      throw InputError("tool event for '" + input.tool + "' has a coordinate, time or pressure out of range");
+    check_event(input);
     if (e.phase == Phase::Begin && !params) throw InputError("a '" + input.tool + "' stroke begins without parameters");
     const double ahead = std::max(0.0, e.time - time_);
     if (ahead > max_advance_seconds) advance_to(e.time);  // throws, saying why
@@ -242,11 +258,7 @@ Feedback Session::apply(Tool& tool, const ToolEvent& event, const ParamSet* para
 Feedback Session::do_tool(Tool& tool, const op::ToolInput& input, const ParamSet* params, UserId user, bool rethrow) {
   const std::string& id = input.tool;
   const ToolEvent& in = input.event;
-  if (!all_finite(in.position) || !all_finite(in.ray) || !std::isfinite(in.time) || !std::isfinite(in.pressure) ||
-      !in.orientation.coeffs().allFinite())
-    throw InputError("tool event for '" + id + "' has a coordinate, time or pressure that is not a finite number");
-  if (!(in.pressure >= 0 && in.pressure <= 1))
-    throw InputError("tool event for '" + id + "' has pressure " + std::to_string(in.pressure) + ": use 0 to 1");
+  check_event(input);
   auto it = active_.find(user);
   if (in.phase == Phase::Begin) {
     if (it != active_.end())
@@ -366,6 +378,7 @@ void Session::cancel_all_strokes() {
 // --- operations ---
 
 Feedback Session::perform(const Operation& operation) {
+  check_operation(operation);
   const auto* checkpoint = std::get_if<op::Checkpoint>(&operation.data);
   if (!checkpoint || !checkpoint->state) advance_to_step(operation.step);  // a given state sets the clock
   const UserId user = operation.user;

@@ -269,7 +269,8 @@ TEST(Peers, ALateJoinerGetsTheStateAndIsInStep) {
   g.start(0);
   g.start(1);
   g.run_until(0.3);
-  g.nodes[1].session->run("pinch", g.nodes[1].session->params_for("pinch"), line(Vec3(0.3, 0.5, 0), Vec3(0.3, 0.6, 0.1), 8, 0));
+  Session& b = *g.nodes[1].session;
+  b.run("pinch", b.params_for("pinch"), line(Vec3(0.3, 0.5, 0), Vec3(0.3, 0.6, 0.1), 8, b.time()));
   g.run_until(1.5);
   g.start(2);
   double joined_at = -1;

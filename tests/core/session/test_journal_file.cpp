@@ -155,6 +155,36 @@ TEST(JournalFile, BadFilesAreRefusedSayingWhy) {
                {"phase": "sideways", "time": 0, "position": [0, 0, 0]}]}]})", "unknown phase");
   expect_error(R"({"format": "kiji-journal", "version": 1, "strokes": [{"tool": "lift", "events": [
                {"phase": "move", "time": 0, "position": [0, 0, 0]}]}]})", "begin");
+  // What a damaged disk or a peer could hand over, each said where and why.
+  expect_error(R"({"format": "kiji-journal", "version": 1, "strokes": [{"tool": "lift", "events": [
+               {"phase": "begin", "time": 0, "position": [0, 0, 0], "orientation": [0, 0, 0, 0]}]}]})",
+               "stroke 0, event 0: the event's orientation (0, 0, 0, 0) is not a unit quaternion");
+  expect_error(R"({"format": "kiji-journal", "version": 1, "strokes": [{"tool": "lift", "events": [
+               {"phase": "begin", "time": 0, "position": [1e308, 0, 0]}]}]})",
+               "stroke 0, event 0: the event's position (1e+308, 0, 0) is outside the world's bounds");
+  expect_error(R"({"format": "kiji-journal", "version": 2, "operations": [{"step": 0, "user": 0, "kind": "tool",
+               "tool": "lift", "event": {"phase": "move", "time": 0, "position": [0, 0, 0], "pressure": 0.5,
+               "ray": [0, 0, -5000]}}]})",
+               "operation 0, its event: the event's ray (0, 0, -5000) is outside the world's bounds");
+  expect_error(R"({"format": "kiji-journal", "version": 2, "operations": [{"step": 0, "user": 0,
+               "kind": "set_pick_radius", "radius": 0}]})", "operation 0: the pick radius is 0 m");
+  // A time before the clock is the session's to refuse, when the replay reaches it.
+  {
+    std::ofstream(tmp("past.json")) << R"({"format": "kiji-journal", "version": 2, "operations": [
+        {"step": 0, "user": 0, "kind": "set_simulating", "simulating": false},
+        {"step": 30, "user": 0, "kind": "tool", "tool": "lift", "params": {}, "event":
+         {"phase": "begin", "time": -5, "position": [0, 0, 0]}}]})";
+  }
+  try {
+    auto registry = std::make_shared<ToolRegistry>();
+    registry->add("lift", [] { return std::make_unique<Lift>(); });
+    Session fresh(registry);
+    replay_file(fresh, tmp("past.json"));
+    ADD_FAILURE() << "an event at -5 s was replayed";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("its time -5 s is before the session's clock (0.5 s"), std::string::npos)
+        << e.what();
+  }
   auto s = session();
   const std::size_t steps = s->journal().entries().size();
   EXPECT_THROW(replay(*s, {{"lasso", {}, stroke(Vec3::Zero(), 0)}}), InputError);

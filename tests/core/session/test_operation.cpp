@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cstring>
 #include <functional>
 #include <random>
@@ -255,19 +256,42 @@ TEST(Operation, OperationsSavedByAnEarlierBuildDecodeAndEncodeToTheSameBytes) {
   const auto now = test::operation_samples();
   ASSERT_EQ(saved.size(), 18u);
   ASSERT_EQ(now.size(), saved.size());
+  // The saved tool events turn the pen by (0.9, 0.1, -0.3, 0.2), of length 0.975: no rotation. That
+  // build took it; this one refuses it, and takes the same bytes with the pen turned by a rotation.
+  const Eigen::Quaterniond saved_turn(0.9, 0.1, -0.3, 0.2), unit_turn = saved_turn.normalized();
+  const auto with_unit_turn = [&](std::string bytes) {
+    char was[32], unit[32];
+    for (int k = 0; k < 4; ++k) {
+      const double a = std::array<double, 4>{saved_turn.w(), saved_turn.x(), saved_turn.y(), saved_turn.z()}[k];
+      const double b = std::array<double, 4>{unit_turn.w(), unit_turn.x(), unit_turn.y(), unit_turn.z()}[k];
+      std::memcpy(was + 8 * k, &a, 8);
+      std::memcpy(unit + 8 * k, &b, 8);
+    }
+    const std::size_t at = bytes.find(std::string(was, 32));
+    if (at == std::string::npos) throw std::logic_error("no saved orientation in the bytes");
+    return bytes.replace(at, 32, std::string(unit, 32));
+  };
   std::set<std::string> kinds;
   for (std::size_t i = 0; i < saved.size(); ++i) {
-    const Operation op = decode_operation(saved[i].bytes);
-    kinds.insert(operation_kind(op.data));
-    EXPECT_EQ(encode_operation(op), saved[i].bytes) << saved[i].name;
     EXPECT_EQ(now[i].name, saved[i].name);
     EXPECT_EQ(now[i].bytes, saved[i].bytes) << saved[i].name;
+    std::string bytes = saved[i].bytes;
+    if (saved[i].name.rfind("tool_", 0) == 0) {
+      EXPECT_EQ(refusal([&] { decode_operation(bytes); }),
+                "operation: the event's orientation (0.9, 0.1, -0.3, 0.2) is not a unit quaternion (its length is "
+                "0.974679): give (w, x, y, z) of length 1")
+          << saved[i].name;
+      bytes = with_unit_turn(bytes);
+    }
+    const Operation op = decode_operation(bytes);
+    kinds.insert(operation_kind(op.data));
+    EXPECT_EQ(encode_operation(op), bytes) << saved[i].name;
   }
   EXPECT_EQ(kinds.size(), std::variant_size_v<OperationData>) << "every kind of operation is saved";
-  const Operation first = decode_operation(saved[0].bytes);
+  const Operation first = decode_operation(with_unit_turn(saved[0].bytes));
   const auto& begin = std::get<op::ToolInput>(first.data);
   EXPECT_EQ(begin.params.size(), 5u);
-  EXPECT_EQ(begin.event.orientation.coeffs(), Eigen::Quaterniond(0.9, 0.1, -0.3, 0.2).coeffs());
+  EXPECT_EQ(begin.event.orientation.coeffs(), unit_turn.coeffs());
   for (const auto& s : saved) {
     for (std::size_t n = 0; n < s.bytes.size(); n += 1 + n / 40)
       EXPECT_THROW(decode_operation(std::string_view(s.bytes).substr(0, n)), InputError) << s.name << " cut at " << n;
@@ -307,6 +331,54 @@ TEST(Operation, ValuesOutOfRangeAreRefusedSayingWhat) {
   std::get<op::ToolInput>(turned.data).event.orientation = Eigen::Quaterniond(1, 0, 0, INFINITY);
   EXPECT_EQ(refusal([&] { decode_operation(encode_operation(turned)); }),
             "operation is malformed at byte 93: the event's orientation is not a finite number");
+  // What a damaged disk or a peer could hand over, each refused with the reason.
+  const auto event_with = [&](const std::function<void(ToolEvent&)>& edit) {
+    Operation op{1, 0, op::ToolInput{"pinch", {}, ToolEvent{}}};
+    edit(std::get<op::ToolInput>(op.data).event);
+    return refusal([&] { decode_operation(encode_operation(op)); });
+  };
+  EXPECT_EQ(event_with([](ToolEvent& e) { e.orientation = Eigen::Quaterniond(0, 0, 0, 0); }),
+            "operation: the event's orientation (0, 0, 0, 0) is not a unit quaternion (its length is 0): give (w, x, "
+            "y, z) of length 1");
+  EXPECT_EQ(event_with([](ToolEvent& e) { e.orientation = Eigen::Quaterniond(1.01, 0, 0, 0); }),
+            "operation: the event's orientation (1.01, 0, 0, 0) is not a unit quaternion (its length is 1.01): give "
+            "(w, x, y, z) of length 1");
+  EXPECT_EQ(event_with([](ToolEvent& e) { e.position = Vec3(0.5, 1e308, 0); }),
+            "operation: the event's position (0.5, 1e+308, 0) is outside the world's bounds (1000 m from the origin "
+            "on each axis)");
+  EXPECT_EQ(event_with([](ToolEvent& e) { e.ray = Vec3(0, 0, -2000); }),
+            "operation: the event's ray (0, 0, -2000) is outside the world's bounds (1000 m from the origin on each "
+            "axis)");
+  EXPECT_EQ(event_with([](ToolEvent& e) { e.pressure = 1.5; }),
+            "operation: the event's pressure is 1.5: it must be from 0 to 1");
+  EXPECT_EQ(event_with([](ToolEvent& e) { e.pressure = -0.25; }),
+            "operation: the event's pressure is -0.25: it must be from 0 to 1");
+  // Within the tolerance, and at the bounds: taken as they are.
+  Operation near{1, 0, op::ToolInput{"pinch", {}, ToolEvent{}}};
+  auto& near_event = std::get<op::ToolInput>(near.data).event;
+  near_event.orientation = Eigen::Quaterniond(1.0002, 0, 0, 0);
+  near_event.position = Vec3(-1000, 1000, 0);
+  near_event.pressure = 0;
+  EXPECT_EQ(encode_operation(decode_operation(encode_operation(near))), encode_operation(near));
+  DecodeLimits small_world;
+  small_world.world_extent = 10;
+  EXPECT_THROW(decode_operation(encode_operation(near), small_world), InputError) << "the bounds are a setting";
+  EXPECT_EQ(refusal([&] { decode_operation(encode_operation({1, 0, op::SetFrameRate{0.5}})); }),
+            "operation: the frame rate is 0.5: use 1 to 10000 steps a second");
+  EXPECT_EQ(refusal([&] { decode_operation(encode_operation({1, 0, op::SetPickRadius{0}})); }),
+            "operation: the pick radius is 0 m: use more than 0 and at most 10 m");
+  EXPECT_EQ(refusal([&] { decode_operation(encode_operation({1, 0, op::SetPickRadius{11}})); }),
+            "operation: the pick radius is 11 m: use more than 0 and at most 10 m");
+  SolverParams far;
+  far.local_center = Vec3(0, -5000, 0);
+  EXPECT_EQ(refusal([&] { decode_operation(encode_operation({1, 0, op::SetSolverParams{far}})); }),
+            "operation: the solver's local_center (0, -5000, 0) is outside the world's bounds (1000 m from the origin "
+            "on each axis)");
+  SolverParams heavy;
+  heavy.gravity = Vec3(0, -1e6, 0);
+  EXPECT_EQ(refusal([&] { decode_operation(encode_operation({1, 0, op::SetSolverParams{heavy}})); }),
+            "operation: the solver's gravity (0, -1e+06, 0) is over 1000 m/s^2 (100 g)");
+
   Operation param{1, 0, op::ToolInput{"pinch", {{"p", 1.0}}, ToolEvent{}}};
   std::string tag = encode_operation(param);
   tag[15 + 9 + 4 + 5] = 5;  // the value's type, after the name "p"

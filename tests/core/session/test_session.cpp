@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <functional>
 #include <mutex>
 #include <thread>
 
@@ -152,8 +153,9 @@ TEST(Session, TwoUsersStrokeAtOnceEachWithTheirOwnTool) {
   replay(b, operations_to_save(a));
   EXPECT_EQ(state(b), state(a));
   // A user's second begin during their own stroke is refused; another user's is not.
-  a.apply("pinch", one[0], &params, 1);
-  EXPECT_THROW(a.apply("cut", one[0], &params, 1), InputError);
+  const Stroke again = line(Vec3(0, 0, 0), Vec3(0, 0, 0.2), 10, a.time());
+  a.apply("pinch", again[0], &params, 1);
+  EXPECT_THROW(a.apply("cut", again[0], &params, 1), InputError);
   const ParamSet cut = a.params_for("cut");
   a.apply("cut", line(Vec3(0.5, -0.1, 0), Vec3(0.5, 1.1, 0), 1, a.time())[0], &cut, 3);
   EXPECT_EQ(a.active_tool(3), "cut");
@@ -245,6 +247,74 @@ TEST(Session, AnEventOrOperationFarInTheFutureIsRefusedAndChangesNothing) {
   e.pressure = 2.0;
   e.time = 0;
   EXPECT_THROW(s.apply("pinch", e, &params), InputError);
+}
+
+TEST(Session, AnEventFromDamageOrAPeerIsRefusedWithTheReasonAndChangesNothing) {
+  Session s(plugins());
+  s.add_garment(make_rectangle(0.4, 0.4, 5, 5));
+  for (int i = 0; i < 30; ++i) s.step();  // the clock at 0.5 s
+  const std::string before = state(s);
+  const std::size_t ops = s.journal().operations().size();
+  const ParamSet params = s.params_for("pinch");
+  const auto refusal = [&](const std::function<void(ToolEvent&)>& edit) {
+    ToolEvent e;
+    e.phase = Phase::Begin;
+    e.time = s.time();
+    e.position = Vec3(0.2, 0.2, 0);
+    edit(e);
+    try {
+      s.apply("pinch", e, &params);
+    } catch (const InputError& error) {
+      return std::string(error.what());
+    }
+    return std::string("taken");
+  };
+  EXPECT_EQ(refusal([](ToolEvent& e) { e.orientation = Eigen::Quaterniond(0, 0, 0, 0); }),
+            "a 'pinch' event was refused: the event's orientation (0, 0, 0, 0) is not a unit quaternion (its length "
+            "is 0): give (w, x, y, z) of length 1");
+  EXPECT_EQ(refusal([](ToolEvent& e) { e.time = -5; }),
+            "a 'pinch' event was refused: its time -5 s is before the session's clock (0.5 s, and its last step began "
+            "at 0.483333 s): an event comes at the clock's time or later");
+  EXPECT_EQ(refusal([](ToolEvent& e) { e.position = Vec3(1e308, 0, 0); }),
+            "a 'pinch' event was refused: the event's position (1e+308, 0, 0) is outside the world's bounds (1000 m "
+            "from the origin on each axis)");
+  EXPECT_EQ(refusal([](ToolEvent& e) { e.pressure = 2; }),
+            "a 'pinch' event was refused: the event's pressure is 2: it must be from 0 to 1");
+  // The same through perform(), as a replay or a peer hands them over.
+  ToolEvent damaged;
+  damaged.phase = Phase::Begin;
+  damaged.time = -5;
+  EXPECT_THROW(s.perform({s.steps(), 0, op::ToolInput{"pinch", params.values(), damaged}}), InputError);
+  EXPECT_EQ(state(s), before);
+  EXPECT_EQ(s.journal().operations().size(), ops);
+  EXPECT_FALSE(s.stroke_active());
+  // A pen sampled faster than the clock steps: its events come within the step just taken.
+  const Stroke fast = line(Vec3(0.2, 0.2, 0), Vec3(0.2, 0.2, 0.05), 20, s.time() + 0.001, 0.001);
+  s.run("pinch", params, fast);
+  EXPECT_FALSE(s.stroke_active());
+  EXPECT_EQ(s.journal().entries().size(), 2u) << "the garment, and the stroke";
+}
+
+TEST(Session, StrokesOfAnotherClockReplayFromThisOneKeepingTheirTimesApart) {
+  Session a(plugins());
+  a.add_garment(make_rectangle(0.5, 0.5, 9, 9));
+  SolverParams still;
+  still.gravity = Vec3::Zero();
+  a.set_solver_params(still);
+  a.run("pinch", a.params_for("pinch"), line(Vec3(0, 0, 0), Vec3(0, 0, 0.1), 10, 0.1));
+  const auto strokes = journal_strokes(a.journal());
+  Session b(plugins());
+  b.add_garment(make_rectangle(0.5, 0.5, 9, 9));
+  b.set_solver_params(still);
+  for (int i = 0; i < 120; ++i) b.step();  // 2 s on, past the stroke's times
+  const double start = b.time();
+  EXPECT_EQ(replay(b, strokes), 1u);
+  EXPECT_NEAR(b.time() - start, 10.0 / 60.0, 1e-9) << "the stroke took its time, from the clock on";
+  double apart = 0;
+  for (Vertex v : a.garment(0).mesh().vertices())
+    apart = std::max(apart, (a.garment(0).position(v) - b.garment(0).position(v)).norm());
+  EXPECT_LT(apart, 1e-6) << "with no gravity, the same lift";
+  EXPECT_GT(b.garment(0).bounds().max().z(), 0.05);
 }
 
 TEST(Session, AnOperationThatCannotApplyIsRefusedBeforeAnythingChanges) {

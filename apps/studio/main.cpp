@@ -147,13 +147,16 @@ int main(int argc, char** argv) {
   for (const PluginReport& r : registry->load_plugins())
     if (!r.loaded) std::fprintf(stderr, "kiji-studio: tool plugin refused: %s: %s\n", r.path.c_str(), r.message.c_str());
 
-  Studio studio(registry);
-  // The clock starts once the scene is set up (and a journal replayed), at zero every time.
-  studio.set_clock_running(false);
+  // The clock starts once the scene is set up (and a journal replayed), at zero every time: held from
+  // the start, so that the simulation thread takes no step before the scene's first operation.
+  Studio studio(registry, /*clock_running=*/false);
   MainWindow window(studio);
   window.resize(options.width, options.height);
   Run run{studio, window, options};
   run.set_up();
+  // What the set-up posted to the simulation thread (a pause after a replay) has run before the
+  // clock starts, so that a replayed design stands as the journal left it.
+  studio.loop().call([](Session&) {});
   studio.set_clock_running(true);
   window.show();
   run.share();

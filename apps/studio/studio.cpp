@@ -40,7 +40,8 @@ Vec3 inside_near(const Garment& g, Vertex v) {
 
 }  // namespace
 
-Studio::Studio(std::shared_ptr<ToolRegistry> tools, QObject* parent) : QObject(parent), tools_(std::move(tools)) {
+Studio::Studio(std::shared_ptr<ToolRegistry> tools, bool clock_running, QObject* parent)
+    : QObject(parent), tools_(std::move(tools)), clock_running_(clock_running) {
   session_ = std::make_shared<Session>(tools_);
   start_loop();
   connect(&poll_timer_, &QTimer::timeout, this, &Studio::poll);
@@ -173,10 +174,29 @@ bool Studio::export_garment(const QString& path, int garment) {
 }
 
 bool Studio::replay(const QString& journal) {
+  JournalFile file;
+  try {
+    file = read_journal_file(journal.toStdString());
+  } catch (const std::exception& e) {
+    return fail("The journal was not replayed", e);
+  }
+  if (file.version >= 2) {
+    auto session = std::make_shared<Session>(tools_);
+    std::size_t done = 0;
+    try {
+      std::lock_guard<std::recursive_mutex> lock(session->mutex());
+      done = kiji::replay(*session, file.operations);
+    } catch (const std::exception& e) {
+      return fail("The journal was not replayed (the scene is as it was)", e);
+    }
+    replace_session(std::move(session));
+    emit message(QString("Replayed %1 operations from %2").arg(done).arg(journal), false);
+    return true;
+  }
   try {
     std::size_t done = 0;
-    loop_->call([&](Session& s) { done = kiji::replay_file(s, journal.toStdString()); });
-    emit message(QString("Replayed %1 from %2").arg(done).arg(journal), false);
+    loop_->call([&](Session& s) { done = kiji::replay(s, file.strokes); });
+    emit message(QString("Replayed %1 strokes from %2").arg(done).arg(journal), false);
   } catch (const std::exception& e) {
     return fail("The journal was not replayed (what came before the failing entry stays)", e);
   }

@@ -27,7 +27,9 @@ QString device_kind_name(DeviceKind kind);
 class Studio : public QObject {
   Q_OBJECT
  public:
-  explicit Studio(std::shared_ptr<ToolRegistry> tools, QObject* parent = nullptr);
+  // clock_running: whether the session's clock runs from the start (see set_clock_running). An app
+  // that sets a scene up first starts with it held, so that no step comes before its first operation.
+  explicit Studio(std::shared_ptr<ToolRegistry> tools, bool clock_running = true, QObject* parent = nullptr);
   ~Studio() override;
 
   std::shared_ptr<Session> session() const { return session_; }
@@ -44,8 +46,10 @@ class Studio : public QObject {
   bool open_session(const QString& path);
   bool save_session(const QString& path);
   bool export_garment(const QString& path, int garment = 0);
-  // Replays a journal file on the scene as it is: the strokes of a version 1 journal at their times,
-  // or the operations of a version 2 one (those the scene was set up with are skipped).
+  // Replays a journal file: the strokes of a version 1 journal on the scene as it is, at their times
+  // (from the clock on); the operations of a version 2 one, which hold the whole scene, into a new
+  // session that takes the place of this one (as open_session), so that the design is the journal's
+  // whatever this scene's clock has done.
   bool replay(const QString& journal);
   // The session's operations as a readable JSON journal (version 2).
   bool save_journal(const QString& path);

@@ -62,6 +62,13 @@ def test_save_load_replay_gives_the_same_garment(tmp_path):
     other, _ = flat_session(1.0, 1.0, 9, 9)
     with pytest.raises(kiji.InputError, match="differs from the journal's at operation 0"):
         other.replay(path)
+    # Set up the same way, but its clock ran on: the journal's operations cannot come at their steps.
+    ran_on, r = flat_session(1.0, 1.0, 11, 11)
+    ran_on.step(2)
+    before = r.positions
+    with pytest.raises(kiji.InputError, match="time ran on after it was set up. Replay the journal on a new session"):
+        ran_on.replay(path)
+    assert np.array_equal(r.positions, before) and ran_on.journal == []
     # A list of strokes replays too, and the session's own journal can be saved with kiji.save_journal.
     again, k = flat_session(1.0, 1.0, 11, 11)
     kiji.save_journal(s.journal, str(tmp_path / "copy.json"))

@@ -60,6 +60,23 @@ run --garment rect:1,1,0.05 --device none --replay "$tmp/unknown_tool.journal" -
 [ $rc -eq 1 ] || fail "exit $rc, not 1"
 said "scissors"
 
+echo "8. a journal the app saved replays every time, on a busy machine: each replay the same garment"
+# The journal of case 5: a pinch stroke of the stand-in pen, made on the app's real-time clock.
+first_step=$(grep -m1 -o '"step": [0-9]*' "$tmp/phantom.journal" 2>/dev/null | grep -o '[0-9]*$')
+[ "$first_step" = 0 ] || fail "the app's first operation came at step '$first_step', not 0: the clock ran before the scene"
+busy=()
+for _ in 1 2; do
+  ( while :; do :; done ) &
+  busy+=($!)
+done
+for i in $(seq 1 10); do
+  run --device none --paused --replay "$tmp/phantom.journal" --quit-after 0.3 --export "$tmp/replayed_$i.glb"
+  [ $rc -eq 0 ] || { fail "replay $i: exit $rc"; cat "$tmp/out.txt"; }
+  cmp -s "$tmp/replayed_1.glb" "$tmp/replayed_$i.glb" || fail "replay $i gave another garment than replay 1"
+done
+kill "${busy[@]}"
+wait "${busy[@]}" 2>/dev/null
+
 if [ $failures -gt 0 ]; then
   echo "$failures case(s) failed"
   exit 1

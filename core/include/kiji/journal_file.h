@@ -84,8 +84,11 @@ using ReplayProgress = std::function<bool(std::size_t done, std::size_t total)>;
 std::size_t replay(Session& session, const std::vector<JournalStroke>& strokes, const ReplayProgress& progress = {});
 // Performs operations, in order, on a new session or one whose own log is a beginning of them (a
 // session set up with the same operations: those are skipped). Returns the number of operations the
-// session then has of the list. Throws InputError if the session's log differs from the list's
-// beginning. Strokes the list leaves unfinished stay in progress.
+// session then has of the list. Throws InputError, before changing anything, if the session's log
+// differs from the list's beginning, if the session's clock has passed the step of the first
+// operation it would apply (time ran on since it was set up: the operations cannot come at their
+// steps, so the result would not be the journal's), or if the steps go back. Strokes the list
+// leaves unfinished stay in progress.
 std::size_t replay(Session& session, const std::vector<Operation>& operations, const ReplayProgress& progress = {});
 // Replays a journal file of either version.
 std::size_t replay_file(Session& session, const std::string& path, const ReplayProgress& progress = {});

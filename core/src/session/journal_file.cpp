@@ -541,6 +541,25 @@ std::size_t replay(Session& session, const std::vector<Operation>& operations, c
     throw InputError("this session's own history differs from the journal's at operation " + std::to_string(first) +
                      " (" + operation_kind(own[first].data) +
                      "): replay a journal on a new session, or on one set up with the same operations");
+  // Time is no operation: a session set up the same way whose clock then ran on has moved its cloth
+  // since, and the journal's operations can no longer come at their steps.
+  std::uint64_t step = session.steps();
+  for (std::size_t i = first; i < operations.size(); ++i) {
+    const Operation& op = operations[i];
+    const auto* checkpoint = std::get_if<op::Checkpoint>(&op.data);
+    if (checkpoint && checkpoint->state) break;  // a whole state sets the clock itself
+    if (op.step < step) {
+      if (i == first)
+        throw InputError("the journal's operation " + std::to_string(i) + " (" + operation_kind(op.data) +
+                         ") came at step " + std::to_string(op.step) + ", and this session's clock is at step " +
+                         std::to_string(step) + ": time ran on after it was set up. Replay the journal on a new "
+                         "session, whose clock has not run");
+      throw InputError("the journal's operation " + std::to_string(i) + " (" + operation_kind(op.data) +
+                       ") came at step " + std::to_string(op.step) + ", before the one ahead of it (step " +
+                       std::to_string(step) + "): the journal is damaged");
+    }
+    step = op.step;
+  }
   std::size_t done = first;
   for (std::size_t i = first; i < operations.size(); ++i) {
     const Operation& op = operations[i];

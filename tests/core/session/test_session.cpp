@@ -295,6 +295,41 @@ TEST(Session, AnEventFromDamageOrAPeerIsRefusedWithTheReasonAndChangesNothing) {
   EXPECT_EQ(s.journal().entries().size(), 2u) << "the garment, and the stroke";
 }
 
+TEST(Session, AReplayOnASessionWhoseClockRanOnIsRefusedBeforeAnythingChanges) {
+  // An app's session set up as the journal's was, whose simulation thread then stepped before the
+  // replay: the journal's next operation cannot come at its step any more.
+  Session a(plugins());
+  a.add_garment(make_rectangle(0.5, 0.5, 9, 9));
+  a.step();
+  a.run("pinch", a.params_for("pinch"), line(Vec3(0, 0, 0), Vec3(0, 0, 0.1), 5, a.time()));
+  const std::vector<Operation> journal = operations_to_save(a);
+  Session ran_on(plugins());
+  ran_on.add_garment(make_rectangle(0.5, 0.5, 9, 9));
+  ran_on.step();
+  ran_on.step();
+  const std::string before = state(ran_on);
+  try {
+    replay(ran_on, journal);
+    ADD_FAILURE() << "a session whose clock had passed the journal's next operation took it";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "the journal's operation 1 (tool) came at step 1, and this session's clock is at step 2: time ran on "
+              "after it was set up. Replay the journal on a new session, whose clock has not run");
+  }
+  EXPECT_EQ(state(ran_on), before);
+  EXPECT_EQ(ran_on.journal().operations().size(), 1u);
+  // Steps that go back are a damaged journal, refused before the first is applied.
+  std::vector<Operation> back = journal;
+  back[1].step = 40;
+  Session fresh(plugins());
+  EXPECT_THROW(replay(fresh, back), InputError);
+  EXPECT_EQ(fresh.garment_count(), 0u);
+  // A new session replays it, every time the same.
+  Session b(plugins());
+  replay(b, journal);
+  EXPECT_EQ(state(b), state(a));
+}
+
 TEST(Session, StrokesOfAnotherClockReplayFromThisOneKeepingTheirTimesApart) {
   Session a(plugins());
   a.add_garment(make_rectangle(0.5, 0.5, 9, 9));

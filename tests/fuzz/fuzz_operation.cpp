@@ -1,6 +1,8 @@
 // The binary forms of operations, garments and bodies (kiji/operation.h): what session files carry
-// and peers send. The first byte picks the decoder; any bytes give a value or an InputError, and a
-// decoded garment is a valid mesh.
+// and peers send. The first byte picks the decoder; any bytes give a value or an InputError, a
+// decoded garment is a valid mesh, and a decoded operation that a session accepts leaves its
+// garments finite.
+#include "fuzz_session.h"
 #include "kiji/error.h"
 #include "kiji/operation.h"
 
@@ -18,6 +20,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         // What was decoded encodes back to bytes that decode to the same encoding.
         const std::string again = kiji::encode_operation(op);
         if (kiji::encode_operation(kiji::decode_operation(again)) != again) __builtin_trap();
+        kiji::fuzz::perform_and_check({op});
         break;
       }
       case 1:

@@ -9,6 +9,9 @@ using detail::Field;
 
 namespace {
 
+// More Loop subdivisions than any import makes (each one quadruples the triangles).
+constexpr std::uint32_t kMaxBodySmoothing = 16;
+
 // The body's fields, in the order they are in the binary form: encode_body and decode_body are
 // these and nothing else.
 template <class A>
@@ -27,6 +30,19 @@ void fields(A& a, Field<A, std::string>& name, Field<A, BodyImportReport>& rep, 
   a.list(triangles, limits.max_faces, 12, "the number of body triangles", [&](auto& t) {
     for (auto& corner : t) a.index(corner, vertices.size(), "a body triangle uses a vertex that does not exist");
   });
+  // The rounding of a low-poly body, which the solver's collision reads (the rounded body's points):
+  // a body decoded without it would drape otherwise than the one encoded. Written only for a rounded
+  // body, so that any other body's form is as it was; bodies written before this part end here.
+  if constexpr (A::reading) {
+    if (a.more()) {
+      std::uint32_t rounds = 0;
+      a.u32(rounds);
+      a.require(rounds >= 1 && rounds <= kMaxBodySmoothing, "the body's rounding is not 1 to 16 subdivisions");
+      rep.smoothing = static_cast<int>(rounds);
+    }
+  } else if (rep.smoothing > 0) {
+    a.u32(static_cast<std::uint32_t>(rep.smoothing));
+  }
   a.end(" after the body");
 }
 

@@ -179,6 +179,7 @@ TEST(BodyCodec, ABodyComesBackExactlyWithItsImportReport) {
   rep.up = Axis::PosZ;
   rep.scale = 0.01;
   rep.meshes_merged = 3;
+  rep.smoothing = 2;  // rounded at import: the solver collides such a body's points, so it must come back
   const Body a = Body::from_triangles(small_body().vertices(), small_body().triangles(), "tetra", rep);
   const Body b = decode_body(encode_body(a));
   EXPECT_EQ(b.name(), "tetra");
@@ -187,8 +188,17 @@ TEST(BodyCodec, ABodyComesBackExactlyWithItsImportReport) {
   EXPECT_EQ(b.report().format, "Collada");
   EXPECT_EQ(b.report().up, Axis::PosZ);
   EXPECT_EQ(b.report().meshes_merged, 3u);
+  EXPECT_EQ(b.report().smoothing, 2);
   const std::string bytes = encode_body(a);
-  for (std::size_t n = 0; n < bytes.size(); ++n) EXPECT_THROW(decode_body(bytes.substr(0, n)), InputError);
+  // Cut just before the rounding, it is a body as an earlier build wrote it: not rounded.
+  BodyImportReport flat = rep;
+  flat.smoothing = 0;
+  const std::size_t unrounded =
+      encode_body(Body::from_triangles(small_body().vertices(), small_body().triangles(), "tetra", flat)).size();
+  EXPECT_EQ(bytes.size(), unrounded + 4);
+  EXPECT_EQ(decode_body(bytes.substr(0, unrounded)).report().smoothing, 0);
+  for (std::size_t n = 0; n < bytes.size(); ++n)
+    if (n != unrounded) EXPECT_THROW(decode_body(bytes.substr(0, n)), InputError) << "cut at " << n;
 }
 
 TEST(Operation, EveryKindComesBackExactly) {
@@ -464,6 +474,19 @@ TEST(BodyCodec, ValuesOutOfRangeAreRefusedSayingWhatAndWhere) {
   corner[24 + 8 + 16 + 4 + 96 + 4] = 7;
   EXPECT_EQ(refusal([&] { decode_body(corner); }),
             "body data is malformed at byte 156: a body triangle uses a vertex that does not exist");
+  // After the triangles, the rounding of a rounded body (a u32), then nothing.
   EXPECT_EQ(refusal([&] { decode_body(bytes + "zz"); }),
-            "body data is malformed at byte " + std::to_string(bytes.size()) + ": 2 bytes are left over after the body");
+            "body data is malformed at byte 200: ends early (4 bytes wanted, 2 left)");
+  const auto rounded = [&](std::uint32_t rounds) {
+    std::string b = bytes;
+    for (int k = 0; k < 4; ++k) b += char((rounds >> (8 * k)) & 0xff);
+    return b;
+  };
+  EXPECT_EQ(decode_body(rounded(2)).report().smoothing, 2);
+  EXPECT_EQ(refusal([&] { decode_body(rounded(0)); }),
+            "body data is malformed at byte 204: the body's rounding is not 1 to 16 subdivisions");
+  EXPECT_EQ(refusal([&] { decode_body(rounded(17)); }),
+            "body data is malformed at byte 204: the body's rounding is not 1 to 16 subdivisions");
+  EXPECT_EQ(refusal([&] { decode_body(rounded(2) + "zz"); }),
+            "body data is malformed at byte 204: 2 bytes are left over after the body");
 }

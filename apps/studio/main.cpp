@@ -10,7 +10,9 @@
 #include "kiji/version.h"
 
 #include <QApplication>
+#include <QDir>
 #include <QEventLoop>
+#include <QStandardPaths>
 #include <QSurfaceFormat>
 #include <QTimer>
 
@@ -36,6 +38,11 @@ struct Run {
   }
 
   void set_up() {
+    if (o.recover) {
+      const QStringList left = studio.unfinished_autosaves();
+      if (left.isEmpty()) std::fprintf(stderr, "kiji-studio: --recover: there is no session to recover\n");
+      else check(studio.recover(left.front()), "--recover");
+    }
     if (o.open_session) check(studio.open_session(QString::fromStdString(*o.open_session)), "--open");
     if (o.body) check(studio.open_body(QString::fromStdString(*o.body), o.body_options), "--body");
     for (const GarmentSpec& g : o.garments) check(studio.add_garment(g), "--garment");
@@ -150,6 +157,10 @@ int main(int argc, char** argv) {
   // The clock starts once the scene is set up (and a journal replayed), at zero every time: held from
   // the start, so that the simulation thread takes no step before the scene's first operation.
   Studio studio(registry, /*clock_running=*/false);
+  if (!options.no_autosave)
+    studio.set_autosave_folder(options.autosave_dir
+                                   ? QDir(QString::fromStdString(*options.autosave_dir)).absolutePath()
+                                   : QDir(QStandardPaths::writableLocation(QStandardPaths::AppDataLocation)).filePath("autosave"));
   MainWindow window(studio);
   window.resize(options.width, options.height);
   Run run{studio, window, options};
@@ -159,6 +170,9 @@ int main(int argc, char** argv) {
   studio.loop().call([](Session&) {});
   studio.set_clock_running(true);
   window.show();
+  // A run for a person offers what an earlier run left unsaved; a scripted one recovers only if asked.
+  if (!options.quit_after && !options.recover && !options.benchmark)
+    QTimer::singleShot(0, &window, [&window] { window.offer_recovery(); });
   run.share();
   run.run_python();
 

@@ -28,9 +28,10 @@
 #include <QJsonObject>
 #include <QPushButton>
 #include <QLabel>
+#include <QPlainTextEdit>
+#include <QTextEdit>
 #include <QAbstractSpinBox>
 #include <QLineEdit>
-#include <QPlainTextEdit>
 #include <QMenuBar>
 #include <QMessageBox>
 #include <QPainter>
@@ -38,10 +39,11 @@
 #include <QTextStream>
 
 #include <cctype>
-#include <cstdio>
 #include <map>
 #include <set>
 #include <tuple>
+
+#include <cstdio>
 
 namespace kiji::studio {
 
@@ -112,6 +114,7 @@ MainWindow::MainWindow(Studio& studio, QWidget* parent) : QMainWindow(parent), s
 
   build_menus();
   connect(&studio, &Studio::message, this, &MainWindow::on_message);
+  connect(&studio, &Studio::file_changed, this, &MainWindow::update_title);
   connect(viewport_, &Viewport::hint, status_hint_, &QLabel::setText);
   connect(tools_, &ToolPanel::said, this, [this](const QString& text) { on_message(text, false); });
   connect(&studio, &Studio::scene_changed, viewport_, &Viewport::frame_all);
@@ -137,8 +140,64 @@ MainWindow::MainWindow(Studio& studio, QWidget* parent) : QMainWindow(parent), s
 MainWindow::~MainWindow() = default;
 
 void MainWindow::closeEvent(QCloseEvent* e) {
+  if (!maybe_save()) {
+    e->ignore();
+    return;
+  }
   studio_.cancel_drape();
   QMainWindow::closeEvent(e);
+}
+
+void MainWindow::update_title() {
+  const QString file = studio_.file();
+  setWindowTitle(QString("%1[*] - Kiji Studio").arg(file.isEmpty() ? QString("Untitled") : QFileInfo(file).fileName()));
+  setWindowModified(studio_.modified());
+}
+
+bool MainWindow::maybe_save() {
+  if (!studio_.modified()) return true;
+  const QString name = studio_.file().isEmpty() ? QString("The session") : QFileInfo(studio_.file()).fileName();
+  const auto answer = QMessageBox::warning(this, "Kiji Studio", name + " has changes that are not saved. Save them?",
+                                           QMessageBox::Save | QMessageBox::Discard | QMessageBox::Cancel,
+                                           QMessageBox::Save);
+  if (answer == QMessageBox::Save) return save();
+  return answer == QMessageBox::Discard;
+}
+
+bool MainWindow::save() {
+  if (studio_.file().isEmpty()) return save_as();
+  return studio_.save_session(studio_.file());
+}
+
+bool MainWindow::save_as() {
+  QString path = QFileDialog::getSaveFileName(this, "Save session", studio_.file(), "Kiji Studio sessions (*.kiji)");
+  if (path.isEmpty()) return false;
+  if (!path.endsWith(".kiji")) path += ".kiji";
+  return studio_.save_session(path);
+}
+
+bool MainWindow::offer_recovery() {
+  const QStringList left = studio_.unfinished_autosaves();
+  if (left.isEmpty()) return false;
+  QString when = QFileInfo(left.front()).lastModified().toString("hh:mm 'on' d MMMM yyyy");
+  if (left.size() > 1) when += QString("; %1 older one%2 too").arg(left.size() - 1).arg(left.size() > 2 ? "s" : "");
+  QMessageBox box(QMessageBox::Question, "Recover a session",
+                  QString("Kiji Studio did not quit cleanly. The session it was working on was autosaved "
+                          "(last at %1).\n\nRecover it?")
+                      .arg(when),
+                  QMessageBox::NoButton, this);
+  QPushButton* recover = box.addButton("Recover", QMessageBox::AcceptRole);
+  QPushButton* discard = box.addButton("Discard", QMessageBox::DestructiveRole);
+  box.addButton("Not now", QMessageBox::RejectRole);
+  box.setDefaultButton(recover);
+  box.exec();
+  if (box.clickedButton() == discard) {
+    for (const QString& f : left) studio_.discard_autosave(f);
+    on_message("The autosaved sessions were discarded", false);
+    return false;
+  }
+  if (box.clickedButton() != recover) return false;
+  return studio_.recover(left.front());
 }
 
 void MainWindow::delete_selected_piece() {
@@ -171,20 +230,19 @@ void MainWindow::undo_or_redo(bool redo) {
 
 void MainWindow::build_menus() {
   QMenu* file = menuBar()->addMenu("&File");
-  file->addAction("&New scene", QKeySequence::New, this, [this] { studio_.new_scene(); });
+  file->addAction("&New scene", QKeySequence::New, this, [this] {
+    if (maybe_save()) studio_.new_scene();
+  });
   file->addAction("Open &body...", this, &MainWindow::open_body_dialog);
   file->addAction("New &garment...", this, &MainWindow::new_garment_dialog);
   file->addSeparator();
   file->addAction("&Open session...", QKeySequence::Open, this, [this] {
+    if (!maybe_save()) return;
     const QString path = QFileDialog::getOpenFileName(this, "Open session", {}, "Kiji Studio sessions (*.kiji)");
     if (!path.isEmpty()) studio_.open_session(path);
   });
-  file->addAction("&Save session...", QKeySequence::Save, this, [this] {
-    QString path = QFileDialog::getSaveFileName(this, "Save session", {}, "Kiji Studio sessions (*.kiji)");
-    if (path.isEmpty()) return;
-    if (!path.endsWith(".kiji")) path += ".kiji";
-    studio_.save_session(path);
-  });
+  file->addAction("&Save session", QKeySequence::Save, this, [this] { save(); });
+  file->addAction("Save session &as...", QKeySequence(Qt::CTRL | Qt::SHIFT | Qt::Key_S), this, [this] { save_as(); });
   file->addAction("&Replay journal...", this, [this] {
     const QString path = QFileDialog::getOpenFileName(this, "Replay journal", {}, "Journals (*.journal *.json);;All files (*)");
     if (!path.isEmpty()) studio_.replay(path);
@@ -203,6 +261,7 @@ void MainWindow::build_menus() {
   });
   file->addSeparator();
   file->addAction("&Host session...", this, [this] { share_dialog(true); });
+  // Joining keeps this session to come back to (Leave session): nothing to save first.
   file->addAction("&Join session...", this, [this] { share_dialog(false); });
   leave_action_ = file->addAction("&Leave session", this, [this] {
     studio_.leave_session();
@@ -211,6 +270,7 @@ void MainWindow::build_menus() {
   leave_action_->setEnabled(false);
   file->addSeparator();
   file->addAction("&Quit", QKeySequence::Quit, this, &QWidget::close);
+  update_title();
 
   QMenu* edit = menuBar()->addMenu("&Edit");
   undo_action_ = edit->addAction("&Undo", QKeySequence(Qt::CTRL | Qt::Key_Z), this, [this] { undo_or_redo(false); });

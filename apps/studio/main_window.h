@@ -42,6 +42,16 @@ class MainWindow : public QMainWindow {
   // The whole window, the view in it.
   QImage grab_window();
   void set_edge_display(EdgeDisplay mode);
+  // Offers to recover the sessions an earlier run left unsaved when it did not quit cleanly (its
+  // autosaves): recover the newest, discard them, or keep them for later. Returns whether one was
+  // recovered.
+  bool offer_recovery();
+  // Asks whether to save a modified session before it is closed: true to go on (saved, or changes
+  // let go), false to stay.
+  bool maybe_save();
+  // Saves to the session's file, or asks for one (false if not saved).
+  bool save();
+  bool save_as();
   // Removes the piece of cloth selected in the view (Ctrl + click), undoably.
   void delete_selected_piece();
 
@@ -57,6 +67,7 @@ class MainWindow : public QMainWindow {
   void phantom_settings_dialog();
   void share_dialog(bool host);
   void sync_device_menu();
+  void update_title();
   // Undo and redo go to the text field that has the keyboard, else to the scene.
   void undo_or_redo(bool redo);
 

@@ -6,8 +6,12 @@
 #include "kiji/session_file.h"
 #include "kiji/topology.h"
 
+#include <QCoreApplication>
+#include <QDateTime>
 #include <QDir>
+#include <QFile>
 #include <QFileInfo>
+#include <QLockFile>
 #include <QStandardPaths>
 
 #include <set>
@@ -24,6 +28,16 @@ QString device_kind_name(DeviceKind kind) {
 }
 
 namespace {
+
+// Whether an operation is a change the user would want saved: not pausing, time passing or the
+// moves of a stroke (its end is).
+bool is_change(const Operation& op) {
+  if (const auto* t = std::get_if<op::ToolInput>(&op.data))
+    return t->event.phase == Phase::End || t->event.phase == Phase::Cancel;
+  return !std::holds_alternative<op::SetSimulating>(op.data) && !std::holds_alternative<op::Advance>(op.data) &&
+         !std::holds_alternative<op::SetFrameRate>(op.data) && !std::holds_alternative<op::SetPickRadius>(op.data) &&
+         !std::holds_alternative<op::Checkpoint>(op.data);
+}
 
 // A point just inside a face of v, near v: a pick there finds v's side of the cloth, not the side of
 // a vertex that a cut left at the same place.
@@ -43,6 +57,7 @@ Vec3 inside_near(const Garment& g, Vertex v) {
 Studio::Studio(std::shared_ptr<ToolRegistry> tools, bool clock_running, QObject* parent)
     : QObject(parent), tools_(std::move(tools)), clock_running_(clock_running) {
   session_ = std::make_shared<Session>(tools_);
+  watch_changes();
   start_loop();
   connect(&poll_timer_, &QTimer::timeout, this, &Studio::poll);
   poll_timer_.start(100);
@@ -57,6 +72,9 @@ Studio::~Studio() {
   loop_->attach(nullptr);
   stop_device();
   loop_->stop();
+  // A clean quit: nothing to recover.
+  stop_autosave(/*remove_file=*/true);
+  session_->remove_listener(change_listener_);
 }
 
 bool Studio::fail(const QString& what, const std::exception& e) {
@@ -73,7 +91,15 @@ void Studio::start_loop() {
   loop_->attach(haptics_.get());
 }
 
-void Studio::replace_session(std::shared_ptr<Session> session) {
+void Studio::watch_changes() {
+  // On the thread that applies the operation: only an atomic count here.
+  change_listener_ = session_->add_listener([this](const Operation& op) {
+    if (is_change(op)) changes_.fetch_add(1);
+  });
+}
+
+void Studio::replace_session(std::shared_ptr<Session> session, const QString& file, std::vector<Operation> history,
+                             bool modified) {
   if (peer_) {
     leave_session();
     emit message("Left the shared session: the new scene is yours alone (host or join again to share it)", false);
@@ -82,16 +108,124 @@ void Studio::replace_session(std::shared_ptr<Session> session) {
   loop_->attach(nullptr);  // the haptic loop lets go of the old session's tools
   loop_->stop();
   loop_.reset();
+  // The session closed is saved or was let go on purpose: its autosave goes with it.
+  stop_autosave(/*remove_file=*/true);
+  session_->remove_listener(change_listener_);
   session_ = std::move(session);
+  file_ = file;
+  history_ = std::move(history);
+  changes_ = 0;
+  saved_changes_ = modified ? ~std::uint64_t(0) : 0;
+  watch_changes();
+  start_autosave(/*with_state=*/true);
   cancel_drape_ = false;
   start_loop();
   emit session_replaced();
   emit scene_changed();
+  file_changed_now();
 }
 
 void Studio::new_scene() {
   replace_session(std::make_shared<Session>(tools_));
   emit message("New scene", false);
+}
+
+void Studio::set_autosave_folder(const QString& folder) {
+  if (folder == autosave_folder_ && (autosave_ || folder.isEmpty())) return;
+  auto stop_and_start = [&] {
+    stop_autosave(/*remove_file=*/true);
+    autosave_folder_ = folder;
+    start_autosave(/*with_state=*/true);
+  };
+  if (loop_ && loop_->running()) {
+    try {
+      loop_->call([&](Session&) { stop_and_start(); });
+    } catch (const std::exception& e) {
+      fail("Autosave is off", e);
+    }
+  } else {
+    stop_and_start();
+  }
+}
+
+void Studio::start_autosave(bool with_state) {
+  if (autosave_folder_.isEmpty()) return;
+  if (!QDir().mkpath(autosave_folder_)) {
+    emit message("Autosave is off: the folder " + autosave_folder_ + " cannot be made", true);
+    return;
+  }
+  static int counter = 0;
+  const QString path = QDir(autosave_folder_)
+                           .filePath(QString("session-%1-%2.kiji").arg(QCoreApplication::applicationPid()).arg(++counter));
+  auto lock = std::make_unique<QLockFile>(path + ".lock");
+  lock->setStaleLockTime(0);
+  if (!lock->tryLock(0)) {
+    emit message("Autosave is off: " + path + " is in use", true);
+    return;
+  }
+  try {
+    QFile::remove(path);
+    autosave_ = std::make_unique<Autosave>(*session_, path.toStdString());
+    // The session's state as it starts: recovery begins there.
+    if (with_state && (session_->garment_count() > 0 || session_->body())) autosave_->write_state();
+  } catch (const std::exception& e) {
+    autosave_.reset();
+    fail("Autosave is off", e);
+    return;
+  }
+  autosave_path_ = path;
+  autosave_lock_ = std::move(lock);
+  checkpoint_changes_ = changes_.load();
+  checkpoint_clock_.restart();
+}
+
+void Studio::stop_autosave(bool remove_file) {
+  autosave_.reset();
+  if (remove_file && !autosave_path_.isEmpty()) QFile::remove(autosave_path_);
+  autosave_lock_.reset();  // unlocks, removing the lock file
+  autosave_path_.clear();
+}
+
+QStringList Studio::unfinished_autosaves() const {
+  QStringList out;
+  if (autosave_folder_.isEmpty()) return out;
+  QDir dir(autosave_folder_);
+  for (const QFileInfo& f : dir.entryInfoList({"session-*.kiji"}, QDir::Files, QDir::Time)) {
+    if (f.absoluteFilePath() == QFileInfo(autosave_path_).absoluteFilePath()) continue;
+    // Locked by a running app (this one or another): its own. Otherwise its app has gone.
+    QLockFile lock(f.absoluteFilePath() + ".lock");
+    lock.setStaleLockTime(0);
+    if (!lock.tryLock(0)) continue;
+    lock.unlock();
+    if (f.size() > 0) out << f.absoluteFilePath();
+    else QFile::remove(f.absoluteFilePath());
+  }
+  return out;
+}
+
+bool Studio::recover(const QString& autosave) {
+  std::shared_ptr<Session> session;
+  Recovered r;
+  try {
+    r = kiji::recover(autosave.toStdString(), tools_, /*keep_saving=*/false);
+    session = std::move(r.session);
+  } catch (const std::exception& e) {
+    return fail("The session in " + autosave + " was not recovered (the file is kept)", e);
+  }
+  replace_session(std::move(session), {}, {}, /*modified=*/true);
+  discard_autosave(autosave);
+  QString text = QString("Recovered the session of %1 (%2 operations)")
+                     .arg(QFileInfo(autosave).lastModified().toString("yyyy-MM-dd hh:mm"))
+                     .arg(r.report.operations);
+  if (r.cancelled_strokes) text += QString("; %1 unfinished stroke(s) cancelled").arg(r.cancelled_strokes);
+  if (!r.report.damage.empty()) text += "; its damaged end was left out (" + QString::fromStdString(r.report.damage) + ")";
+  emit message(text + ". Save it to keep it.", false);
+  return true;
+}
+
+void Studio::discard_autosave(const QString& autosave) {
+  QFile::remove(autosave);
+  QFile::remove(autosave + ".lock");
 }
 
 bool Studio::open_body(const QString& path, const BodyImportOptions& options) {
@@ -135,30 +269,43 @@ bool Studio::add_garment(const GarmentSpec& spec) {
 bool Studio::open_session(const QString& path) {
   auto session = std::make_shared<Session>(tools_);
   std::size_t operations = 0;
+  std::vector<Operation> ops;
+  SavedState state;
   try {
     SessionFileReport report;
-    const std::vector<Operation> ops = load_session(path.toStdString(), &report);
+    ops = load_session(path.toStdString(), &report, &state);
+    // From the state the file carries: the steps before it are its history, not replayed.
     std::lock_guard<std::recursive_mutex> lock(session->mutex());
-    operations = kiji::replay(*session, ops);
+    operations = open_operations(*session, ops, state);
     if (!report.damage.empty())
       emit message(QString("%1 was damaged at its end (%2): the %3 operations before it were opened")
                        .arg(path, QString::fromStdString(report.damage))
-                       .arg(operations),
+                       .arg(report.operations),
                    true);
   } catch (const std::exception& e) {
     return fail("The session was not opened (the one open is as it was)", e);
   }
-  replace_session(std::move(session));
-  emit message(QString("Opened %1: %2 operations replayed").arg(QFileInfo(path).fileName()).arg(operations), false);
+  ops.resize(state.found ? state.after : 0);
+  replace_session(std::move(session), QFileInfo(path).absoluteFilePath(), std::move(ops));
+  emit message(state.found ? QString("Opened %1 from the state it was saved in").arg(QFileInfo(path).fileName())
+                           : QString("Opened %1: %2 operations replayed").arg(QFileInfo(path).fileName()).arg(operations),
+               false);
   return true;
 }
 
 bool Studio::save_session(const QString& path) {
+  std::uint64_t changes = 0;
   try {
-    loop_->call([&](Session& s) { kiji::save_session(s, path.toStdString()); });
+    loop_->call([&](Session& s) {
+      kiji::save_session(s, path.toStdString(), history_);
+      changes = changes_.load();
+    });
   } catch (const std::exception& e) {
     return fail("The session was not saved", e);
   }
+  file_ = QFileInfo(path).absoluteFilePath();
+  saved_changes_ = changes;
+  file_changed_now();
   emit message("Saved " + path, false);
   return true;
 }
@@ -189,7 +336,8 @@ bool Studio::replay(const QString& journal) {
     } catch (const std::exception& e) {
       return fail("The journal was not replayed (the scene is as it was)", e);
     }
-    replace_session(std::move(session));
+    // A design not yet in a session file: closing it asks first.
+    replace_session(std::move(session), {}, {}, /*modified=*/true);
     emit message(QString("Replayed %1 operations from %2").arg(done).arg(journal), false);
     return true;
   }
@@ -383,7 +531,7 @@ bool Studio::reset() {
   } catch (const std::exception& e) {
     return fail("The scene was not reset", e);
   }
-  replace_session(std::move(session));
+  replace_session(std::move(session), file_, history_, /*modified=*/true);
   emit message("Reset: the scene as it was before the first stroke", false);
   return true;
 }
@@ -492,8 +640,27 @@ QString Studio::device_description() const {
   return {};
 }
 
+void Studio::file_changed_now() {
+  said_modified_ = modified();
+  emit file_changed();
+}
+
 void Studio::poll() {
   for (const std::string& m : loop_->take_messages()) emit message(QString::fromStdString(m), true);
+  if (modified() != said_modified_) file_changed_now();
+  // The autosave begins again from the state now and then (and after a drape, which is long to
+  // simulate again), so that recovery replays only the last of the work.
+  const std::uint64_t changes = changes_.load();
+  const bool draped = was_draping_ && !draping_.load();
+  was_draping_ = draping_.load();
+  if (autosave_ && changes != checkpoint_changes_ && !draping_.load() &&
+      (draped || checkpoint_clock_.elapsed() > kCheckpointEveryMs)) {
+    checkpoint_changes_ = changes;
+    checkpoint_clock_.restart();
+    loop_->post([this](Session&) {
+      if (autosave_) autosave_->write_state();
+    }, "autosave");
+  }
   if (haptics_) {
     const HapticStats st = haptics_->stats();
     const std::size_t errors = st.tool_errors + st.device_errors;

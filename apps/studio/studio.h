@@ -8,16 +8,25 @@
 #include "peer_link.h"
 #include "scene_setup.h"
 
+#include "kiji/operation.h"
 #include "kiji/phantom.h"
 #include "kiji/plugin_loader.h"
 #include "kiji/simulation_loop.h"
 
+#include <QElapsedTimer>
 #include <QObject>
 #include <QString>
+#include <QStringList>
 #include <QTimer>
 
 #include <atomic>
 #include <memory>
+
+class QLockFile;
+
+namespace kiji {
+class Autosave;
+}
 
 namespace kiji::studio {
 
@@ -42,9 +51,30 @@ class Studio : public QObject {
   void new_scene();
   bool open_body(const QString& path, const BodyImportOptions& options);
   bool add_garment(const GarmentSpec& spec);
-  // A session file (.kiji: the log of every operation) replayed into a new session.
+  // A session file (.kiji: the log of every operation, and the state when it was saved) opened into
+  // a new session: from the state it carries, without replaying its steps (a file saved by an
+  // earlier Kiji, which carries none, is replayed).
   bool open_session(const QString& path);
+  // Saves the session (with the history it was opened from) to a session file; it is then the
+  // session's file, and the session is unmodified.
   bool save_session(const QString& path);
+  // The session file the session was opened from or last saved to ("" if none).
+  const QString& file() const { return file_; }
+  // Whether the session changed (a stroke, a garment or body, an undo, a drape) since it was opened,
+  // saved or made.
+  bool modified() const { return changes_.load() != saved_changes_; }
+
+  // --- Autosave and recovery (the library's Autosave, kiji/session_file.h) ---
+  // The folder autosaves go to ("": none). Each session is autosaved there as it changes, from the
+  // state it started with; the file is removed when the session is closed or the app quits cleanly.
+  void set_autosave_folder(const QString& folder);
+  QString autosave_path() const { return autosave_path_; }
+  // Autosaves that an earlier run of the app left behind (it did not quit cleanly), newest first.
+  QStringList unfinished_autosaves() const;
+  // Rebuilds the session an autosave holds and makes it this one; the autosave is then removed.
+  bool recover(const QString& autosave);
+  // Removes an autosave that is not wanted.
+  void discard_autosave(const QString& autosave);
   bool export_garment(const QString& path, int garment = 0);
   // Replays a journal file: the strokes of a version 1 journal on the scene as it is, at their times
   // (from the clock on); the operations of a version 2 one, which hold the whole scene, into a new
@@ -130,14 +160,23 @@ class Studio : public QObject {
   // Sharing started or ended, or the peers' view was copied afresh.
   void sharing_changed();
   void peers_changed();
+  // The session's file or whether it is modified changed (the window's title says both).
+  void file_changed();
 
  private:
   struct ToolChoice {
     std::string id;
     ParamSet params;
   };
-  void replace_session(std::shared_ptr<Session> session);
+  // Makes `session` the app's (its autosave started, `history` the operations before its state);
+  // `file` is the session file it came from, or "".
+  void replace_session(std::shared_ptr<Session> session, const QString& file = {}, std::vector<Operation> history = {},
+                       bool modified = false);
   void start_loop();
+  void start_autosave(bool with_state);
+  void file_changed_now();
+  void stop_autosave(bool remove_file);
+  void watch_changes();
   void stop_device();
   void poll();
   void poll_peers();
@@ -161,6 +200,20 @@ class Studio : public QObject {
   QTimer poll_timer_;
 
   bool picking_ = false;
+
+  QString file_;
+  std::vector<Operation> history_;  // the operations before the state the session was opened from
+  std::atomic<std::uint64_t> changes_{0};
+  std::uint64_t saved_changes_ = 0;
+  bool said_modified_ = false;
+  int change_listener_ = -1;
+  QString autosave_folder_, autosave_path_;
+  std::unique_ptr<Autosave> autosave_;
+  std::unique_ptr<QLockFile> autosave_lock_;
+  static constexpr qint64 kCheckpointEveryMs = 30000;
+  QElapsedTimer checkpoint_clock_;
+  std::uint64_t checkpoint_changes_ = 0;
+  bool was_draping_ = false;
 
   std::unique_ptr<PeerLink> peer_;
   QTimer peer_timer_;

@@ -50,6 +50,10 @@ std::string StudioOptions::usage() {
          "  --drape SECONDS         let the garments fall and settle on the body first\n"
          "  --open SESSION          open a saved session (.kiji) instead\n"
          "  --replay JOURNAL        run the strokes of a journal on the scene\n"
+         "Work kept:\n"
+         "  --autosave-dir DIR      where the session is autosaved as it changes [the app's data folder]\n"
+         "  --no-autosave           no autosave\n"
+         "  --recover               recover the newest session an earlier run left unsaved, without asking\n"
          "Designing together (docs/peers.md):\n"
          "  --host                  host a shared session of this scene\n"
          "  --join                  join a shared session (the host's scene replaces this one)\n"
@@ -129,6 +133,11 @@ StudioOptions StudioOptions::parse(const std::vector<std::string>& args) {
         if (o.drape_seconds <= 0 || o.drape_seconds > 3600) throw UsageError("option --drape must be 0 to 3600 seconds");
       } else if (name == "--open") o.open_session = take();
       else if (name == "--replay") o.replay = take();
+      else if (name == "--autosave-dir") {
+        o.autosave_dir = take();
+        if (o.autosave_dir->empty()) throw UsageError("option --autosave-dir needs a folder");
+      } else if (name == "--no-autosave") flag(), o.no_autosave = true;
+      else if (name == "--recover") flag(), o.recover = true;
       else if (name == "--device") {
         o.device = take();
         if (o.device != "mouse" && o.device != "phantom" && o.device != "none")
@@ -202,6 +211,8 @@ StudioOptions StudioOptions::parse(const std::vector<std::string>& args) {
                      "session: add --host or --join");
   if (o.join && o.seconds > 0) throw UsageError("option --seconds is the host's: a joiner's clock is the host's");
   if (o.channel && o.channel->empty()) throw UsageError("option --channel needs a name");
+  if (o.no_autosave && (o.autosave_dir || o.recover))
+    throw UsageError("option --no-autosave leaves out --autosave-dir and --recover");
   if (o.open_session && (o.body || !o.garments.empty()))
     throw UsageError("option --open opens a whole session: leave out --body and --garment");
   return o;

@@ -28,6 +28,8 @@ struct StudioOptions {
   bool paused = false;
   double drape_seconds = 0;
   std::optional<std::string> replay, open_session;
+  std::optional<std::string> autosave_dir;  // default: the app's data folder
+  bool no_autosave = false, recover = false;
   std::vector<std::string> python;  // lines for the console, run in order once the window is up
   std::optional<double> quit_after;
   std::optional<std::string> screenshot, window_screenshot, save_journal, save_session, export_garment;

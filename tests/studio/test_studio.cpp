@@ -8,6 +8,7 @@
 
 #include "kiji/journal_file.h"
 #include "kiji/session.h"
+#include "kiji/session_file.h"
 #include "kiji/topology.h"
 
 #include "fixtures/hd_standin/hd_record.h"
@@ -53,6 +54,7 @@ class StudioTest : public QObject {
   Q_OBJECT
 
  private:
+  std::shared_ptr<ToolRegistry> registry_;
   std::unique_ptr<Studio> studio_;
   std::unique_ptr<MainWindow> window_;
   QString tmp_;
@@ -130,8 +132,8 @@ class StudioTest : public QObject {
   }
 
   // Real X events (xdotool, through the X server, as a hand on the mouse makes them): the arguments
-  // are xdotool's; world points are given as "@i" with `at`, turned into screen pixels. Events are
-  // taken by the window as they come (the test's event loop runs meanwhile).
+  // are xdotool's (screen() gives a world point's pixels). The window takes the events as they come:
+  // the test's event loop runs meanwhile.
   bool xdotool(const QStringList& args) {
     QProcess p;
     p.start(KIJI_XDOTOOL, args);
@@ -159,6 +161,20 @@ class StudioTest : public QObject {
       if (a->text() == text) return a;
     qFatal("no action '%s'", qPrintable(text));
     return nullptr;
+  }
+
+  // Triggers the action named `text`, answers the message box it opens with `button`, and returns
+  // what the box asked ("" if none opened).
+  QString trigger_answering(const QString& text, QMessageBox::StandardButton button) {
+    auto asked = std::make_shared<QString>();
+    QTimer::singleShot(0, [asked, button] {
+      if (auto* box = qobject_cast<QMessageBox*>(QApplication::activeModalWidget())) {
+        *asked = box->text();
+        box->button(button)->click();
+      }
+    });
+    action_named(text)->trigger();
+    return *asked;
   }
 
   // Triggers the window's menu action named `text`; `fill` gets the modal dialog it opens (it runs
@@ -195,9 +211,9 @@ class StudioTest : public QObject {
     qunsetenv("KIJI_HD_STANDIN_FAIL");
     qunsetenv("KIJI_HD_STANDIN_PATH");
     qunsetenv("KIJI_HD_STANDIN_LOG");
-    auto registry = std::make_shared<ToolRegistry>();
-    registry->load_plugins();
-    studio_ = std::make_unique<Studio>(registry);
+    registry_ = std::make_shared<ToolRegistry>();
+    registry_->load_plugins();
+    studio_ = std::make_unique<Studio>(registry_);
     window_ = std::make_unique<MainWindow>(*studio_);
     window_->resize(1200, 800);
     window_->show();
@@ -723,6 +739,95 @@ class StudioTest : public QObject {
     auto* box = window_->findChild<QMessageBox*>("error_box");
     QVERIFY(box && box->text().contains("3 messages"));
     QVERIFY(!box->isModal());
+  }
+
+  // --- Work kept ---
+
+  void changes_are_not_lost_without_a_question_and_the_title_names_the_file() {
+    QVERIFY(window_->windowTitle().startsWith("Untitled"));
+    hanging_square();
+    QVERIFY2(wait_until([&] { return window_->isWindowModified(); }), qPrintable(QString("modified %1, title %2").arg(studio_->modified()).arg(window_->windowTitle())));
+    // New scene: cancelled, the garment stays; discarded, it goes.
+    QVERIFY(trigger_answering("&New scene", QMessageBox::Cancel).contains("not saved"));
+    QCOMPARE(with_session([](Session& s) { return s.garment_count(); }), std::size_t(1));
+    QVERIFY(!trigger_answering("&New scene", QMessageBox::Discard).isEmpty());
+    QCOMPARE(with_session([](Session& s) { return s.garment_count(); }), std::size_t(0));
+    // Saved: the file in the title, and nothing asked.
+    hanging_square();
+    const QString path = tmp_ + "/titled.kiji";
+    QVERIFY(studio_->save_session(path));
+    QVERIFY(wait_until([&] { return !window_->isWindowModified(); }));
+    QVERIFY2(window_->windowTitle().startsWith("titled.kiji"), qPrintable(window_->windowTitle()));
+    QVERIFY(trigger_answering("&New scene", QMessageBox::Cancel).isEmpty());
+    // Closing the window with changes asks too.
+    hanging_square();
+    QVERIFY2(wait_until([&] { return window_->isWindowModified(); }), qPrintable(QString("modified %1, title %2").arg(studio_->modified()).arg(window_->windowTitle())));
+    QString asked;
+    QTimer::singleShot(0, [&] {
+      if (auto* box = qobject_cast<QMessageBox*>(QApplication::activeModalWidget())) {
+        asked = box->text();
+        box->button(QMessageBox::Cancel)->click();
+      }
+    });
+    QVERIFY(!window_->close());
+    QVERIFY(asked.contains("not saved"));
+    QVERIFY(window_->isVisible());
+  }
+
+  void a_saved_session_opens_from_the_state_it_carries() {
+    hanging_square();
+    window_->tool_panel().choose("cut");
+    drag(Vec3(-0.7, 1.2, 0), Vec3(0.7, 1.2, 0), 30);
+    QVERIFY(wait_until([&] { return strokes() == 1; }));
+    const QString path = tmp_ + "/snapshot.kiji";
+    QVERIFY(studio_->save_session(path));
+    const std::string garment = with_session([](Session& s) { return encode_garment(s.garment(0)); });
+    studio_->new_scene();
+    QVERIFY(studio_->open_session(path));
+    QVERIFY2(window_->statusBar()->currentMessage().contains("from the state it was saved in"),
+             qPrintable(window_->statusBar()->currentMessage()));
+    // One operation applied (the state), not the strokes again; the same garment.
+    QCOMPARE(with_session([](Session& s) { return s.journal().operations().size(); }), std::size_t(1));
+    QCOMPARE(with_session([](Session& s) { return encode_garment(s.garment(0)); }), garment);
+    // Saved again, the file keeps the history it was opened from.
+    QVERIFY(studio_->save_session(tmp_ + "/snapshot_again.kiji"));
+    QVERIFY(load_session((tmp_ + "/snapshot_again.kiji").toStdString()).size() >= load_session(path.toStdString()).size());
+  }
+
+  void an_unfinished_autosave_is_recovered() {
+    const QString folder = tmp_ + "/autosave";
+    QDir(folder).removeRecursively();
+    std::string garment;
+    // A run that did not quit cleanly: its autosave is left, its lock gone with its process.
+    {
+      Studio crashed(registry_);
+      crashed.set_autosave_folder(folder);
+      GarmentSpec g;
+      g.spacing = 0.1;
+      QVERIFY(crashed.add_garment(g));
+      crashed.set_simulating(false);
+      crashed.loop().call([&](Session& s) {
+        Garment g = s.garment(0);
+        g.set_position(Vertex(0), Vec3(0, 3, 0));
+        s.set_garment(0, g);
+        garment = encode_garment(s.garment(0));
+      });
+      QFile::copy(crashed.autosave_path(), folder + "/session-1-1.kiji");
+    }
+    studio_->set_autosave_folder(folder);
+    const QStringList left = studio_->unfinished_autosaves();
+    QCOMPARE(left.size(), 1);
+    QTimer::singleShot(0, [] {
+      if (auto* box = qobject_cast<QMessageBox*>(QApplication::activeModalWidget()))
+        for (QAbstractButton* b : box->buttons())
+          if (b->text() == "Recover") b->click();
+    });
+    QVERIFY(window_->offer_recovery());
+    QCOMPARE(with_session([](Session& s) { return s.garment_count(); }), std::size_t(1));
+    QCOMPARE(with_session([](Session& s) { return encode_garment(s.garment(0)); }), garment);
+    QVERIFY(studio_->modified());
+    QVERIFY(!QFile::exists(left.front()));
+    QVERIFY(studio_->unfinished_autosaves().isEmpty());
   }
 
   // --- A piece of cloth deleted ---

@@ -297,6 +297,7 @@ void Viewport::build_overlay(const SceneFrame& frame, Overlay& overlay, std::vec
 
   // The pointer: a drop line and a shadow where it would come down on the cloth or the body.
   drop_.reset();
+  sew_target_.reset();
   if (frame.has_pointer && options_.show_pointer) {
     const Vec3 tip = frame.pointer.position;
     const RayHit below = cast_ray(frame, tip, Vec3(0, -1, 0), true);
@@ -362,6 +363,7 @@ void Viewport::build_overlay(const SceneFrame& frame, Overlay& overlay, std::vec
         push(dot.xyz, target);
         overlay.lines.push_back(dot);
         labels.emplace_back(target, best_d <= distance ? "sews here" : centimetres(best_d));
+        sew_target_ = SewTarget{target, best_d, best_d <= distance};
       }
       break;
     }

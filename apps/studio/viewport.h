@@ -82,6 +82,14 @@ class Viewport : public QOpenGLWindow {
   // Where the drop line from the pointer lands (the cloth or body below it, else the floor), if the
   // pointer is drawn.
   std::optional<Vec3> drop_point() const { return drop_; }
+  // While a pinch-sew drags a border vertex: the vertex it would be sewn to, as last drawn (its
+  // position, the distance to it, and whether that is within the sewing distance).
+  struct SewTarget {
+    Vec3 at = Vec3::Zero();
+    double distance = 0;
+    bool within = false;
+  };
+  std::optional<SewTarget> sew_target() const { return sew_target_; }
 
  public slots:
   void frame_all();
@@ -160,6 +168,7 @@ class Viewport : public QOpenGLWindow {
   bool trail_live_ = false;
   std::uint32_t sewn_vertex_ = kNone;  // the border vertex a sew stroke drags
   std::optional<Vec3> drop_;
+  std::optional<SewTarget> sew_target_;
   QString hint_;
 
   QElapsedTimer fps_clock_;

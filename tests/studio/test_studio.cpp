@@ -904,6 +904,60 @@ class StudioTest : public QObject {
     window_->grab_window().save(tmp_ + "/drop_line.png");  // to look at
   }
 
+  void a_pinch_sew_shows_the_vertex_it_would_join_before_it_joins_it() {
+    hanging_square(0.1);
+    window_->tool_panel().choose("sew");  // mode 'pinch', sewing distance 1 cm
+    const Box3 b = with_session([](Session& s) { return s.garment(0).bounds(); });
+    const double y = b.min().y(), x0 = b.min().x();
+    const auto vertices = [&] { return with_session([](Session& s) { return s.garment(0).mesh().number_of_vertices(); }); };
+    const std::size_t before = vertices();
+    // The bottom-left corner dragged along the bottom to 4 cm short of the vertex two along.
+    Viewport& v = window_->viewport();
+    // Pressed 1 cm inside the corner, on the cloth: the sew takes the corner, which then keeps 1 cm
+    // from the pointer.
+    const Vec3 grip(0.01, 0.01, 0);
+    const Vec3 corner = Vec3(x0, y, 0) + grip, near = Vec3(x0 + 0.16, y, 0) + grip;
+    const Vec3 onto = with_session([&](Session& s) {
+      const Garment& g = s.garment(0);
+      Vec3 best = Vec3::Zero();
+      for (Vertex w : g.mesh().vertices())
+        if ((g.position(w) - Vec3(x0 + 0.2, y, 0)).norm() < (best - Vec3(x0 + 0.2, y, 0)).norm()) best = g.position(w);
+      return best;
+    });
+    QTest::mouseMove(&v, v.project(corner).toPoint());
+    QTest::qWait(30);
+    QTest::mousePress(&v, Qt::LeftButton, Qt::NoModifier, v.project(corner).toPoint());
+    QTest::qWait(50);
+    for (int i = 1; i <= 10; ++i) {
+      const QPointF p = v.project(corner + (near - corner) * (i / 10.0));
+      QMouseEvent move(QEvent::MouseMove, p, v.mapToGlobal(p), Qt::NoButton, Qt::LeftButton, Qt::NoModifier);
+      QApplication::sendEvent(&v, &move);
+      QTest::qWait(20);
+    }
+    // Shown before anything is sewn: that vertex, 4 cm away, not yet within reach.
+    const bool shown = wait_until([&] {
+      const auto t = v.sew_target();
+      return t && (t->at - onto).norm() < 0.005 && t->distance > 0.03 && t->distance < 0.06;
+    }, 3000);
+    const auto t = v.sew_target();
+    QVERIFY2(shown, t ? qPrintable(QString("the target shown is (%1, %2, %3), %4 m away")
+                                       .arg(t->at.x()).arg(t->at.y()).arg(t->at.z()).arg(t->distance))
+                      : "no target shown");
+    QVERIFY(!v.sew_target()->within);
+    QCOMPARE(vertices(), before);
+    // On it, the two become one.
+    const QPointF p = v.project(onto + grip);
+    QMouseEvent move(QEvent::MouseMove, p, v.mapToGlobal(p), Qt::NoButton, Qt::LeftButton, Qt::NoModifier);
+    QApplication::sendEvent(&v, &move);
+    QTest::qWait(50);
+    QTest::mouseRelease(&v, Qt::LeftButton, Qt::NoModifier, p.toPoint());
+    QVERIFY(wait_until([&] { return strokes() == 1; }));
+    // Merged, or (where merging would pinch the border: they share a neighbour) tacked together.
+    const std::size_t tacks = with_session([](Session& s) { return s.garment(0).tacks.size(); });
+    QVERIFY2(vertices() == before - 1 || tacks == 1,
+             qPrintable(QString("%1 vertices (from %2), %3 tacks").arg(vertices()).arg(before).arg(tacks)));
+  }
+
   void the_tools_are_on_keys() {
     hanging_square();
     window_->viewport().widget()->setFocus();

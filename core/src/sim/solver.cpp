@@ -626,10 +626,6 @@ void rebuild(SolverArrays& s, const Garment& g) {
   cluster_tree(vertex_keys, SolverArrays::kVertCluster, item_box, s.vert_tree, s.vcl_begin, s.vcl_items, s.vcl_leaf);
   build_self_exclusions(s);
 
-  s.cand_start.assign(n, 0);
-  s.cand_count.assign(n, 0);
-  s.cand.clear();
-  s.contact_verts.clear();
   s.self_pairs.clear();
   s.sleep_ready = false;  // everything awake, but what the garment's sleep record finds as it slept
   s.built = true;

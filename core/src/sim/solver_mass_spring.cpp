@@ -24,10 +24,12 @@ void step_mass_spring(SolverArrays& s, const SolverParams& p, const Material& m,
 
   for (std::size_t i = 0; i < n; ++i)
     s.pred[i] = s.moving[i] ? Vec3(s.v[i] * dt + (g + s.fext[i]) * (dt * dt)) : Vec3::Zero();
-  if (body && !s.body_tris.empty())
-    gather_body_candidates(s, *body, m.thickness);
-  else
-    s.contact_verts.clear();
+  const bool collide = body && !s.body_tris.empty();
+  std::vector<int> moving;
+  std::vector<Vec3> before;  // where the moving vertices were before the body's push
+  if (collide)
+    for (std::size_t i = 0; i < n; ++i)
+      if (s.moving[i]) moving.push_back(static_cast<int>(i));
 
   const int ne = static_cast<int>(s.e_i.size());
   Vec3* X = s.x.data();
@@ -58,11 +60,12 @@ void step_mass_spring(SolverArrays& s, const SolverParams& p, const Material& m,
       s.v[i] += h * (F[i] - gamma * s.v[i] + s.fext[i] + g);  // unit mass
       X[i] += h * s.v[i];
     }
-    if (!s.contact_verts.empty()) {
-      for (int i : s.contact_verts) {
-        resolve_body(s, i, m.thickness, m.friction);
-        s.v[i] = (X[i] - s.xp[i]) / h;
-      }
+    if (collide) {
+      before.clear();
+      for (int i : moving) before.push_back(X[i]);
+      resolve_body(s, *body, moving, m.thickness, m.friction);
+      for (std::size_t q = 0; q < moving.size(); ++q)
+        if (X[moving[q]] != before[q]) s.v[moving[q]] = (X[moving[q]] - s.xp[moving[q]]) / h;
     }
   }
 }

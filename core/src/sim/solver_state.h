@@ -11,11 +11,16 @@
 #include <BulletCollision/BroadphaseCollision/btDbvt.h>
 
 #include <array>
+#include <memory>
 #include <chrono>
 #include <cstdint>
 #include <vector>
 
 namespace kiji {
+
+namespace solver_detail {
+class BodyField;
+}
 
 // Where a garment's cloth sleeps, kept with the garment (see Garment::sleep_record), by vertex index.
 struct SleepRecord {
@@ -126,6 +131,7 @@ struct SolverArrays {
 
   // ---- body collision (candidates gathered once per step, used by every substep) ----
   const Body* body = nullptr;
+  std::shared_ptr<const solver_detail::BodyField> field;  // the body's distance field
   struct BodyTri {
     Vec3 a, b, c, n;
   };
@@ -139,17 +145,8 @@ struct SolverArrays {
     double side;  // +1 / -1: the side of the triangle the point was on when the pair was gathered
   };
   std::vector<PointPair> point_pairs;
-  std::vector<int> cand_start, cand_count, cand;  // per vertex: candidate body triangles
-  std::vector<int> contact_verts;                 // vertices with at least one candidate
-  std::vector<Box3> box;                          // per vertex: the box its candidates cover
-                                                  // (empty: too fast to keep any)
-  std::vector<unsigned char> escaped;             // left its box during a substep
-  std::vector<int> escapees;                      // those vertices, in index order
-  struct Gather {                                 // one piece of the parallel gathering
-    std::vector<int> cand, verts, scratch;
-  };
-  std::vector<Gather> gather;
-  std::vector<int> gather_cut;                    // the pieces' first clusters, and the end
+  std::vector<unsigned char> escaped;  // per vertex: moved further than a field cell in the substep
+  std::vector<int> escapees;           // those vertices, in index order
 
   // ---- self collision: two btDbvt trees, refitted at each gather, whose leaves are clusters of
   // nearby vertices and of nearby triangles (runs in Morton order); cluster c holds the items
@@ -186,6 +183,10 @@ struct SolverArrays {
     double d0;    // their distance then
   };
   std::vector<SelfPair> self_pairs;
+  // Per triangle at the gather: its unit normal (zero when it has no area), centroid and the radius
+  // of the sphere about it (self_pair_test).
+  std::vector<Vec3> tri_n, tri_g;
+  std::vector<double> tri_r;
   // The pairs in runs [self_runs[r], self_runs[r + 1]): those before self_runs_serial_from share
   // no vertex with another run's and are resolved together; the rest in sequence (see
   // partition_self_pairs).
@@ -230,7 +231,6 @@ struct SolverArrays {
   std::vector<std::uint64_t> sleep_key;       // per vertex: its edges, rest lengths and mass, hashed (scratch)
 
   // ---- diagnostics of the last step ----
-  std::size_t last_body_candidates = 0;
   std::size_t last_self_pairs = 0;
   StepReport report;  // what the last step did (Solver::last_step)
 };
@@ -259,9 +259,7 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
 void step_mass_spring(SolverArrays& s, const SolverParams& p, const Material& m, const BodyCollider* body, double dt);
 void rebuild(SolverArrays& s, const Garment& g);
 void set_body(SolverArrays& s, const Body* body);
-void gather_body_candidates(SolverArrays& s, const BodyCollider& collider, double thickness);
 // Pushes vertex i out of the body to `thickness`, on the side it came from (xp), with friction.
-void resolve_body(SolverArrays& s, int i, double thickness, double friction);
 void resolve_body_against(SolverArrays& s, int i, double thickness, double friction, const int* tris, int count);
 // A point of the body thinner than the cloth's spacing (a low-poly fingertip, the tip of a horn)
 // would pass between the cloth's vertices, which alone are kept out of the body, and hold the cloth
@@ -270,11 +268,16 @@ void resolve_body_against(SolverArrays& s, int i, double thickness, double frict
 void find_body_points(SolverArrays& s, const Body& body);
 void gather_point_pairs(SolverArrays& s, double thickness);
 void resolve_point_pairs(SolverArrays& s, double thickness);
-// Vertices that constraint corrections carried out of the box their candidates were gathered for
-// (a seam closing, the strain limit, a hand), and those too fast to keep candidates: resolved
-// against the body triangles along their actual motion in this substep, so they cannot pass
-// through a triangle that was not a candidate.
-void resolve_escaped(SolverArrays& s, const BodyCollider& collider, double thickness, double friction);
+// The body's distance field for this thickness (BodyField::of), when the body is new or the field
+// does not reach as far as the thickness needs.
+void prepare_body_field(SolverArrays& s, double thickness);
+// The vertices `verts` against the body at the end of a substep: a vertex the field finds within
+// reach of the body, against the triangles its cell lists; one that moved further than a cell in
+// the substep (a flick of the pen), against what the body's tree finds along its motion, so that
+// it cannot pass through a triangle its cell does not list. Returns nothing; the vertices the
+// body moved are those whose position changed.
+void resolve_body(SolverArrays& s, const BodyCollider& collider, const std::vector<int>& verts, double thickness,
+                  double friction);
 // Vertex-triangle pairs that can come within the thickness while the vertices move by `win` (from
 // x), with the last step's surprise_self times surprise_scale as slack.
 void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale);

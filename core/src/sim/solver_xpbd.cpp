@@ -114,7 +114,7 @@ Constraints select_constraints(SolverArrays& s) {
           s.a_bends.data(), &s.ab_ranges, s.ab_ranges.back()};
 }
 
-constexpr int kVertexGrain = 2048, kConstraintGrain = 256, kContactGrain = 128;
+constexpr int kVertexGrain = 2048, kConstraintGrain = 256;
 // A plain hand's mass, in units of k h^2 (its stiffness times the substep squared).
 constexpr double kHandMass = 25.0;
 
@@ -384,14 +384,8 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
     PhaseClock clock(s.report.ms.body);
     s.up = g.squaredNorm() > 0 ? Vec3(-g.normalized()) : Vec3::Zero();
     if (body && !s.body_tris.empty()) {
-      gather_body_candidates(s, *body, th);
       gather_point_pairs(s, th);
-      parallel::for_range(static_cast<int>(n), kVertexGrain, [&](int b, int e) {
-        for (int i = b; i < e; ++i)
-          if (s.cand_count[i] == 0) s.held_up[i] = 0;  // no body near: nothing holds it up
-      });
     } else {
-      s.contact_verts.clear();
       s.point_pairs.clear();
       std::fill(s.held_up.begin(), s.held_up.end(), 0);
     }
@@ -597,11 +591,7 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
     hands(true);
     {
       PhaseClock clock(s.report.ms.body);
-      // Each contact moves only its own vertex.
-      parallel::for_range(static_cast<int>(s.contact_verts.size()), kContactGrain, [&](int b, int e) {
-        for (int k = b; k < e; ++k) resolve_body(s, s.contact_verts[k], th, m.friction);
-      });
-      if (body && !s.body_tris.empty()) resolve_escaped(s, *body, th, m.friction);
+      if (body && !s.body_tris.empty()) resolve_body(s, *body, s.act, th, m.friction);
     }
     const double inv_h = 1.0 / h;
     parallel::for_range(na, kVertexGrain, [&](int b, int e) {

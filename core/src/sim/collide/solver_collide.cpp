@@ -1,14 +1,11 @@
 // Collisions for the solver: cloth against the body and cloth against itself.
 //
-// Culling happens once per step (body) or once per window of substeps (self); the substeps only run
-// exact tests on the cached candidates:
-//  - body: the vertices are grouped in clusters of nearby vertices (Morton order); each cluster's
-//    swept box (the step's predicted motion plus the thickness) queries the body's Bullet tree
-//    once, and each vertex keeps the triangles whose boxes meet its own swept box. A vertex that
-//    sweeps more than kFastSweep in a step (a flick of the pen) keeps none: a box that large holds
-//    thousands of triangles, each tested every substep; it is tested instead against what its box
-//    of each substep's motion meets, found in the tree then (resolve_escaped);
-//  - self: two Bullet btDbvt trees (leaves: clusters of 8 cloth vertices, of 8 cloth triangles),
+//  - body: each substep, every moving vertex looks up its cell of the body's distance field
+//    (body_field.h): far from the body it is done; near it, it is tested exactly against the few
+//    triangles the cell lists. A vertex that moved further than a cell in the substep (a flick of
+//    the pen) is tested against what the body's Bullet tree finds along its motion;
+//  - self: culling happens once per window of substeps, and the substeps run exact tests on the
+//    pairs found: two Bullet btDbvt trees (leaves: clusters of 8 cloth vertices, of 8 cloth triangles),
 //    refitted to the swept boxes at each gather and intersected with each other, give vertex-
 //    triangle pairs (a vertex never with the triangles of its own neighbourhood); pairs that cannot
 //    come within the thickness during the window are dropped, and each keeps the side it started
@@ -16,6 +13,8 @@
 //    relative to itself (self_window in solver_xpbd.cpp).
 #include "base/geometry.h"
 #include "base/parallel.h"
+#include "sim/collide/body_field.h"
+#include "sim/collide/self_pairs.h"
 #include "sim/solver_state.h"
 
 #include <algorithm>
@@ -30,10 +29,6 @@
 namespace kiji::solver_detail {
 
 namespace {
-constexpr int kCluster = 8;
-// The largest side of a vertex's swept box above which it keeps no candidates (6 m/s at 60 steps a
-// second: faster than cloth falls onto a body or a hand draws it).
-constexpr double kFastSweep = 0.1;
 // How far beyond the thickness a vertex over an upward surface still counts as held up by it, as a
 // share of the thickness (resolve_body_against): 0.1-0.25 mm, several times what gravity moves
 // resting cloth in a substep.
@@ -71,6 +66,7 @@ void refit(btDbvtNode* node) {
 
 void set_body(SolverArrays& s, const Body* body) {
   s.body = body;
+  s.field = nullptr;  // made for the cloth's thickness at its first step (prepare_body_field)
   s.sleep_ready = false;  // a new body: everything wakes
   s.body_tris.clear();
   s.body_boxes.clear();
@@ -224,76 +220,6 @@ void resolve_point_pairs(SolverArrays& s, double thickness) {
   }
 }
 
-void gather_body_candidates(SolverArrays& s, const BodyCollider& collider, double thickness) {
-  std::fill(s.cand_count.begin(), s.cand_count.end(), 0);
-  const double pad = 1.5 * thickness;
-  const int nv = static_cast<int>(s.order.size());
-  s.box.resize(s.n);
-  parallel::for_range(static_cast<int>(s.n), 2048, [&](int b, int e) {
-    for (int i = b; i < e; ++i)
-      if (s.moving[i]) {
-        s.box[i] = swept_box(s, s.pred, s.surprise, 1.0, i, pad, 0.5);
-        if (s.box[i].sizes().maxCoeff() > kFastSweep) s.box[i].setEmpty();  // see resolve_escaped
-      }
-  });
-  const int clusters = (nv + kCluster - 1) / kCluster;
-  // The clusters in contiguous pieces of as many moving vertices each (a local region moves a
-  // few of the clusters), each gathered on its own (in parallel) into its own lists, then joined
-  // in order: the same lists as one serial pass.
-  int moving = 0;
-  for (int k = 0; k < nv; ++k) moving += s.moving[s.order[k]] != 0;
-  const int pieces = std::max(1, std::min({clusters / 4, 16 * parallel::thread_count(), moving / 512}));
-  s.gather.resize(pieces);
-  s.gather_cut.assign(1, 0);
-  for (int cl = 0, seen = 0; cl < clusters && static_cast<int>(s.gather_cut.size()) < pieces; ++cl) {
-    for (int k = cl * kCluster, e = std::min(nv, k + kCluster); k < e; ++k) seen += s.moving[s.order[k]] != 0;
-    if (std::int64_t(seen) * pieces >= std::int64_t(moving) * static_cast<int>(s.gather_cut.size()))
-      s.gather_cut.push_back(cl + 1);
-  }
-  s.gather_cut.resize(pieces, clusters);
-  s.gather_cut.push_back(clusters);
-  parallel::for_each(pieces, [&](int piece) {
-    SolverArrays::Gather& out = s.gather[piece];
-    out.cand.clear();
-    out.verts.clear();
-    const int first = s.gather_cut[piece], last = s.gather_cut[piece + 1];
-    for (int cl = first; cl < last; ++cl) {
-      const int c0 = cl * kCluster, c1 = std::min(nv, c0 + kCluster);
-      Box3 cb;
-      for (int k = c0; k < c1; ++k) {
-        const int i = s.order[k];
-        if (s.moving[i]) cb.extend(s.box[i]);
-      }
-      if (cb.isEmpty() || !cb.intersects(s.body_bounds)) continue;
-      collider.triangles_in_box(cb, out.scratch);
-      if (out.scratch.empty()) continue;
-      for (int k = c0; k < c1; ++k) {
-        const int i = s.order[k];
-        if (!s.moving[i]) continue;
-        const Box3& vb = s.box[i];
-        s.cand_start[i] = static_cast<int>(out.cand.size());  // within the piece, shifted below
-        for (int t : out.scratch)
-          if (s.body_boxes[t].intersects(vb)) out.cand.push_back(t);
-        s.cand_count[i] = static_cast<int>(out.cand.size()) - s.cand_start[i];
-        if (s.cand_count[i] > 0) out.verts.push_back(i);
-      }
-    }
-  });
-  s.cand.clear();
-  s.contact_verts.clear();
-  for (const SolverArrays::Gather& out : s.gather) {
-    const int shift = static_cast<int>(s.cand.size());
-    for (int i : out.verts) s.cand_start[i] += shift;
-    s.cand.insert(s.cand.end(), out.cand.begin(), out.cand.end());
-    s.contact_verts.insert(s.contact_verts.end(), out.verts.begin(), out.verts.end());
-  }
-  s.last_body_candidates = s.cand.size();
-}
-
-void resolve_body(SolverArrays& s, int i, double th, double mu) {
-  resolve_body_against(s, i, th, mu, s.cand.data() + s.cand_start[i], s.cand_count[i]);
-}
-
 void resolve_body_against(SolverArrays& s, int i, double th, double mu, const int* c, int cnt) {
   Vec3 x = s.x[i];
   const Vec3 xp = s.xp[i];
@@ -358,17 +284,37 @@ void resolve_body_against(SolverArrays& s, int i, double th, double mu, const in
   s.x[i] = x;
 }
 
-void resolve_escaped(SolverArrays& s, const BodyCollider& collider, double th, double mu) {
-  if (s.box.size() != s.n) return;
-  const int na = static_cast<int>(s.act.size());
+void prepare_body_field(SolverArrays& s, double th) {
+  const double need = (1 + kHeldMargin) * th;
+  if (s.body && (!s.field || need + s.field->cell_radius() > s.field->band())) s.field = BodyField::of(*s.body, need);
+}
+
+void resolve_body(SolverArrays& s, const BodyCollider& collider, const std::vector<int>& verts, double th, double mu) {
+  prepare_body_field(s, th);
+  const BodyField& f = *s.field;
+  const double reach = (1 + kHeldMargin) * th + f.cell_radius();
+  const double fast = f.cell();
+  const int na = static_cast<int>(verts.size());
   s.escaped.resize(s.n);
-  parallel::for_range(na, 4096, [&](int b, int e) {
-    for (int a = b; a < e; ++a) s.escaped[s.act[a]] = !s.box[s.act[a]].contains(s.x[s.act[a]]);
+  parallel::for_range(na, 1024, [&](int b, int e) {
+    for (int a = b; a < e; ++a) {
+      const int i = verts[a];
+      const Vec3& x = s.x[i];
+      s.escaped[i] = (x - s.xp[i]).squaredNorm() > fast * fast;
+      if (s.escaped[i]) continue;
+      const std::int64_t c = f.cell_of(x);
+      if (c < 0 || f.distance(c) > reach) {
+        s.held_up[i] = 0;
+        continue;
+      }
+      int count = 0;
+      const int* tris = f.triangles(c, count);
+      resolve_body_against(s, i, th, mu, tris, count);
+    }
   });
   s.escapees.clear();
-  for (int i : s.act)
+  for (int i : verts)
     if (s.escaped[i]) s.escapees.push_back(i);
-  // Each moves only its own vertex: in parallel, each thread with its own list of triangles.
   parallel::for_range(static_cast<int>(s.escapees.size()), 64, [&](int b0, int e0) {
     thread_local std::vector<int> tris;
     for (int k = b0; k < e0; ++k) {
@@ -376,9 +322,13 @@ void resolve_escaped(SolverArrays& s, const BodyCollider& collider, double th, d
       Box3 b(s.xp[i].cwiseMin(s.x[i]), s.xp[i].cwiseMax(s.x[i]));
       b.min() -= Vec3::Constant(1.5 * th);
       b.max() += Vec3::Constant(1.5 * th);
-      if (!b.intersects(s.body_bounds)) continue;
+      if (!b.intersects(s.body_bounds)) {
+        s.held_up[i] = 0;
+        continue;
+      }
       collider.triangles_in_box(b, tris);
       if (!tris.empty()) resolve_body_against(s, i, th, mu, tris.data(), static_cast<int>(tris.size()));
+      else s.held_up[i] = 0;
     }
   });
 }
@@ -445,37 +395,13 @@ struct PairCollector : btDbvt::ICollide {
 #endif
   }
   void pair(int v, int t) {
-    const auto& tri = s->tris[t];
-    if (s->w[v] == 0 && s->w[tri[0]] == 0 && s->w[tri[1]] == 0 && s->w[tri[2]] == 0) return;
-    const Vec3& A = s->x[tri[0]];
-    const Vec3& B = s->x[tri[1]];
-    const Vec3& C = s->x[tri[2]];
-    double rel = 0;
-    for (int k = 0; k < 3; ++k) rel = std::max(rel, (s->win[v] - s->win[tri[k]]).squaredNorm());
-    // resolve_self keeps a pair min(thickness, 0.6 spacing) apart: pairs that cannot come that
-    // close are none (on a mesh finer than the thickness, the full thickness would gather several
-    // rings of neighbours for every vertex, and more the finer the mesh).
-    const double reach = std::min(th, 0.6 * s->spacing[v]) + std::sqrt(rel);
-    // The plane first (cheap): a vertex further from the triangle's plane than it can come during
-    // the window is no pair.
-    const Vec3 n = (B - A).cross(C - A);
-    const double n2 = n.squaredNorm();
-    const double dn = (s->x[v] - A).dot(n);
-    if (dn * dn > reach * reach * n2) return;
-    // Then the sphere around the triangle (cheap; on a flat sheet the plane test passes the
-    // triangles next to the vertex's neighbours, none of them within reach).
-    const Vec3 g = (A + B + C) * (1.0 / 3.0);
-    const double r = std::sqrt(std::max({(A - g).squaredNorm(), (B - g).squaredNorm(), (C - g).squaredNorm()})) + reach;
-    if ((s->x[v] - g).squaredNorm() > r * r) return;
-    const geom::ClosestPoint cp = geom::closest_on_triangle(s->x[v], A, B, C);
-    const Vec3 d = s->x[v] - cp.point;
-    if (d.squaredNorm() > reach * reach) return;  // cannot come within the thickness in the window
-    const double side = d.dot(n) >= 0 ? 1.0 : -1.0;
+    SolverArrays::SelfPair p;
+    if (!self_pair_test(*s, th, v, t, p)) return;
     if (out->size() >= budget) {
       full = true;
       return;
     }
-    out->push_back({v, t, side, d.norm()});
+    out->push_back(p);
   }
 };
 
@@ -651,6 +577,24 @@ void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale)
   s.self_pairs.clear();
   s.last_self_pairs = 0;
   if (!s.tri_tree.m_root || !s.vert_tree.m_root) return;
+  // What self_pair_test reads of each triangle, once for the gather.
+  const int ntris = static_cast<int>(s.tris.size());
+  s.tri_n.resize(ntris);
+  s.tri_g.resize(ntris);
+  s.tri_r.resize(ntris);
+  parallel::for_range(ntris, 2048, [&](int b, int e) {
+    for (int t = b; t < e; ++t) {
+      const Vec3& A = s.x[s.tris[t][0]];
+      const Vec3& B = s.x[s.tris[t][1]];
+      const Vec3& C = s.x[s.tris[t][2]];
+      const Vec3 n = (B - A).cross(C - A);
+      const double len = n.norm();
+      s.tri_n[t] = len > 0 ? Vec3(n / len) : Vec3::Zero();
+      s.tri_g[t] = (A + B + C) * (1.0 / 3.0);
+      s.tri_r[t] = std::sqrt(std::max({(A - s.tri_g[t]).squaredNorm(), (B - s.tri_g[t]).squaredNorm(),
+                                       (C - s.tri_g[t]).squaredNorm()}));
+    }
+  });
   Vec3 c = Vec3::Zero();
   const std::size_t nm = s.act.size();  // the moving vertices, in index order
   for (int i : s.act) c += s.win[i];

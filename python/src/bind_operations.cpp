@@ -94,7 +94,7 @@ void bind_operations(py::module_& m) {
         return py::none();
       }, "the new frame rate, simulating flag or pick radius")
       .def("to_bytes", [](const Operation& op) { return py::bytes(encode_operation(op)); },
-           "The binary form (format OPERATION_FORMAT_VERSION).")
+           "The binary form: version OPERATION_VERSION at most, the oldest that holds the operation.")
       .def_static("from_bytes", [](const py::bytes& b) {
         const std::string bytes = b;
         return decode_operation(bytes);
@@ -106,6 +106,7 @@ void bind_operations(py::module_& m) {
                ", user " + std::to_string(op.user) + ">";
       });
   m.attr("OPERATION_FORMAT_VERSION") = kOperationFormatVersion;
+  m.attr("OPERATION_VERSION") = kOperationVersion;
   m.def("hash_bytes", [](const py::bytes& b) { return hash_bytes(std::string(b)); }, py::arg("data"),
         "Kiji's 64-bit FNV-1a hash of bytes (names payloads and states; not a security measure).");
 

@@ -114,6 +114,8 @@ void bind_scene(py::module_& m) {
       .def_readwrite("sleep_after", &SolverParams::sleep_after,
                      "seconds a patch of cloth stays within sleep_distance before it sleeps (0: never)")
       .def_readwrite("sleep_distance", &SolverParams::sleep_distance, "m")
+      .def_readwrite("floor", &SolverParams::floor,
+                     "with a body, the cloth rests on the ground through the body's lowest point (its feet)")
       .def_property(
           "local_center", [](const SolverParams& p) { return vec3_array(p.local_center); },
           [](SolverParams& p, py::handle v) { p.local_center = to_vec3(v, "local_center"); })

@@ -13,7 +13,8 @@
 
 namespace kiji {
 
-// Version of the binary forms (these and operations'); a decoder refuses a later one, naming both.
+// Version of the garment and body binary forms (an operation's own is kOperationVersion); a decoder
+// refuses a later one, naming both.
 constexpr std::uint16_t kOperationFormatVersion = 1;
 
 // Limits a decoder enforces on outside bytes (a file, a network message) before allocating.

@@ -57,6 +57,11 @@ struct SolverParams {
   // on the body then costs what its moving part costs. sleep_after = 0 turns it off.
   double sleep_after = 0.5;
   double sleep_distance = 0.005;
+  // A floor: with a body, the cloth rests on the horizontal plane through the body's lowest point
+  // (its feet), the cloth's thickness above it, with the cloth's friction, as on the ground; cloth
+  // cut away or dropped lands there rather than falling for ever. Cloth that is already below it
+  // stays where it is. Without a body there is no floor.
+  bool floor = true;
 
   // Throws InputError naming the parameter out of range.
   void validate() const;

@@ -80,7 +80,11 @@ class WriteArchive {
   }
   // Whether the form goes on (a part later versions added): always.
   bool more() const { return true; }
-  void version(std::uint16_t newest, const char*) { w_.u16(newest); }
+  void version(std::uint16_t newest, const char*) { w_.u16(version_ = newest); }
+  // A form whose later versions add fields: `written` (the oldest version that holds the value) is
+  // written, and is what form_version() says while the fields are written.
+  void version(std::uint16_t, std::uint16_t written, const char*) { w_.u16(version_ = written); }
+  std::uint16_t form_version() const { return version_; }
 
   // A list's length as a u32 (a reader refuses over `max`, or more than the bytes left could hold
   // at `record_bytes` an item, and sizes the list): returns it.
@@ -122,6 +126,7 @@ class WriteArchive {
 
  private:
   ByteWriter w_;
+  std::uint16_t version_ = 0;
 };
 
 class ReadArchive {
@@ -183,7 +188,10 @@ class ReadArchive {
   }
   bool present(bool, const char* field) { return r_.boolean(field); }
   bool more() const { return !r_.at_end(); }
-  void version(std::uint16_t newest, const char* what) { check_format_version(r_, newest, what); }
+  void version(std::uint16_t newest, const char* what) { version_ = check_format_version(r_, newest, what); }
+  void version(std::uint16_t newest, std::uint16_t, const char* what) { version(newest, what); }
+  // The version the form was written in (what fields a later version added are there).
+  std::uint16_t form_version() const { return version_; }
 
   template <class List>
   std::size_t count(List& items, std::size_t max, std::size_t record_bytes, const char* field) {
@@ -263,6 +271,7 @@ class ReadArchive {
     ((index == I ? (void)v.template emplace<I>() : void()), ...);
   }
   ByteReader r_;
+  std::uint16_t version_ = 0;
 };
 
 // A value's binary form, and a value read from one (`what` names the form in errors).

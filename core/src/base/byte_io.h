@@ -141,12 +141,14 @@ class ByteReader {
   std::string what_;
 };
 
-// Reads a binary form's version and refuses 0 or one later than `newest`, naming both.
-inline void check_format_version(ByteReader& r, std::uint16_t newest, const char* what) {
+// Reads a binary form's version and refuses 0 or one later than `newest`, naming both; returns it.
+inline std::uint16_t check_format_version(ByteReader& r, std::uint16_t newest, const char* what) {
   const std::uint16_t v = r.u16();
-  if (v == 0 || v > newest)
-    r.fail(std::string(what) + " format version " + std::to_string(v) + "; this Kiji reads versions 1 to " +
-           std::to_string(newest) + ": use a newer Kiji");
+  const std::string reads = "; this Kiji reads versions 1 to " + std::to_string(newest);
+  if (v == 0)
+    r.fail(std::string(what) + " format version 0" + reads + ": no Kiji writes version 0, so the bytes are damaged or not Kiji's");
+  if (v > newest) r.fail(std::string(what) + " format version " + std::to_string(v) + reads + ": use a newer Kiji");
+  return v;
 }
 
 }  // namespace kiji::detail

@@ -196,7 +196,7 @@ ToolEvent parse_event(const json& je, const Reader& r) {
 }
 
 json solver_json(const SolverParams& p) {
-  return {{"model", solver_model_name(p.model)},
+  json j = {{"model", solver_model_name(p.model)},
           {"gravity", vec_json(p.gravity)},
           {"substeps", p.substeps},
           {"iterations", p.iterations},
@@ -209,6 +209,9 @@ json solver_json(const SolverParams& p) {
           {"local_center", vec_json(p.local_center)},
           {"sleep_after", p.sleep_after},
           {"sleep_distance", p.sleep_distance}};
+  // Written only when on, as in the binary form: journals of earlier builds had no floor.
+  if (p.floor) j["floor"] = true;
+  return j;
 }
 
 SolverParams parse_solver(const json& j, const Reader& r) {
@@ -223,6 +226,7 @@ SolverParams parse_solver(const json& j, const Reader& r) {
   p.iterations = static_cast<int>(r.whole(j, "iterations", 1, 100));
   p.body_collision = r.boolean(j, "body_collision");
   p.self_collision = r.boolean(j, "self_collision");
+  p.floor = j.contains("floor") && r.boolean(j, "floor");
   p.strain_limit = r.number(j, "strain_limit");
   p.spring_k = r.number(j, "spring_k");
   p.spring_damping = r.number(j, "spring_damping");

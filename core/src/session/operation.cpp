@@ -78,6 +78,12 @@ void fields(A& a, Field<A, SolverParams>& p) {
   a.vec3(p.local_center, "local_center");
   a.f64(p.sleep_after);
   a.f64(p.sleep_distance);
+  // Version 2 added the floor; parameters of version 1 (written before it, or with it off) have it
+  // off, so that a session saved before it replays as it ran.
+  if (a.form_version() >= 2)
+    a.boolean(p.floor, "floor");
+  else if constexpr (A::reading)
+    p.floor = false;
   a.validate(p, "the solver parameters are out of range: ");
 }
 
@@ -143,7 +149,9 @@ void fields(A&, Empty&, const DecodeLimits&) {}
 
 template <class A>
 void fields(A& a, Field<A, Operation>& op, const DecodeLimits& limits) {
-  a.version(kOperationFormatVersion, "operation");
+  // The oldest version that holds the operation, so that an older Kiji reads what it can.
+  const auto* params = std::get_if<op::SetSolverParams>(&op.data);
+  a.version(kOperationVersion, params && params->params.floor ? 2 : 1, "operation");
   a.u64(op.step);
   a.u32(op.user);
   a.variant(op.data, kKindTags, "unknown operation kind", [&](auto& data) { fields(a, data, limits); });

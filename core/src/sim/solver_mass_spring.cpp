@@ -63,7 +63,7 @@ void step_mass_spring(SolverArrays& s, const SolverParams& p, const Material& m,
     if (collide) {
       before.clear();
       for (int i : moving) before.push_back(X[i]);
-      resolve_body(s, *body, moving, m.thickness, m.friction);
+      resolve_body(s, *body, moving, m.thickness, m.friction, p.floor);
       for (std::size_t q = 0; q < moving.size(); ++q)
         if (X[moving[q]] != before[q]) s.v[moving[q]] = (X[moving[q]] - s.xp[moving[q]]) / h;
     }

@@ -31,7 +31,7 @@ namespace {
 // What the resting shape depends on. Not the damping: cloth at rest stays at rest whatever it is.
 std::array<double, 15> physics_of(const SolverParams& p, const Material& m) {
   return {static_cast<double>(p.model), p.gravity.x(), p.gravity.y(), p.gravity.z(),
-          static_cast<double>(p.body_collision), static_cast<double>(p.self_collision), p.strain_limit,
+          static_cast<double>(p.body_collision) + (p.floor ? 2.0 : 0.0), static_cast<double>(p.self_collision), p.strain_limit,
           p.spring_k, p.sleep_distance, m.density, m.stretch_stiffness, m.bending_stiffness, m.friction,
           m.thickness, m.tear_ratio};
 }

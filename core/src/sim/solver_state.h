@@ -274,10 +274,10 @@ void prepare_body_field(SolverArrays& s, double thickness);
 // The vertices `verts` against the body at the end of a substep: a vertex the field finds within
 // reach of the body, against the triangles its cell lists; one that moved further than a cell in
 // the substep (a flick of the pen), against what the body's tree finds along its motion, so that
-// it cannot pass through a triangle its cell does not list. Returns nothing; the vertices the
-// body moved are those whose position changed.
+// it cannot pass through a triangle its cell does not list. With `floor`, then against the floor
+// through the body's lowest point (SolverParams::floor).
 void resolve_body(SolverArrays& s, const BodyCollider& collider, const std::vector<int>& verts, double thickness,
-                  double friction);
+                  double friction, bool floor);
 // Vertex-triangle pairs that can come within the thickness while the vertices move by `win` (from
 // x), with the last step's surprise_self times surprise_scale as slack.
 void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale);

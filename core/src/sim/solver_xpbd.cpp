@@ -591,7 +591,7 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
     hands(true);
     {
       PhaseClock clock(s.report.ms.body);
-      if (body && !s.body_tris.empty()) resolve_body(s, *body, s.act, th, m.friction);
+      if (body && !s.body_tris.empty()) resolve_body(s, *body, s.act, th, m.friction, p.floor);
     }
     const double inv_h = 1.0 / h;
     parallel::for_range(na, kVertexGrain, [&](int b, int e) {

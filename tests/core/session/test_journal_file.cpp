@@ -222,3 +222,27 @@ TEST(JournalFile, AJournalSavedByAnEarlierBuildReadsBackAndSavesToTheSameFile) {
   again.replace(at, end - at, saved.substr(was, was_end - was));
   EXPECT_EQ(again, saved);
 }
+
+// The floor under the body is saved with the solver's settings and comes back; a journal saved
+// before the floor existed has none, so it replays as it did then.
+TEST(JournalFile, TheFloorSettingComesBackAndAnEarlierJournalHasNone) {
+  SolverParams on;
+  on.floor = true;
+  SolverParams off = on;
+  off.floor = false;
+  save_journal({Operation{0, 0, op::SetSolverParams{on}}, Operation{1, 0, op::SetSolverParams{off}}},
+               tmp("floor.json"));
+  const JournalFile file = read_journal_file(tmp("floor.json"));
+  ASSERT_EQ(file.operations.size(), 2u);
+  EXPECT_TRUE(std::get<op::SetSolverParams>(file.operations[0].data).params.floor);
+  EXPECT_FALSE(std::get<op::SetSolverParams>(file.operations[1].data).params.floor);
+
+  const JournalFile earlier = read_journal_file(std::string(KIJI_TEST_SAVED) + "/journal.json");
+  int settings = 0;
+  for (const Operation& op : earlier.operations)
+    if (const auto* p = std::get_if<op::SetSolverParams>(&op.data)) {
+      ++settings;
+      EXPECT_FALSE(p->params.floor) << "step " << op.step;
+    }
+  EXPECT_GT(settings, 0) << "the saved journal sets the solver";
+}

@@ -309,6 +309,26 @@ TEST(Operation, OperationsSavedByAnEarlierBuildDecodeAndEncodeToTheSameBytes) {
   }
 }
 
+TEST(Operation, TheFloorIsWrittenInVersionTwoAndOffInVersionOne) {
+  // Parameters with the floor off are the bytes a build before the floor wrote (version 1), and
+  // those read as off, so that a session saved then replays as it ran; on, version 2.
+  SolverParams on, off;
+  off.floor = false;
+  const std::string with = encode_operation({1, 0, op::SetSolverParams{on}});
+  const std::string without = encode_operation({1, 0, op::SetSolverParams{off}});
+  EXPECT_EQ(with[0], 2);
+  EXPECT_EQ(without[0], 1);
+  EXPECT_EQ(with.size(), without.size() + 1);
+  EXPECT_EQ(with.substr(1, without.size() - 1), without.substr(1));
+  EXPECT_TRUE(std::get<op::SetSolverParams>(decode_operation(with).data).params.floor);
+  EXPECT_FALSE(std::get<op::SetSolverParams>(decode_operation(without).data).params.floor);
+  EXPECT_EQ(encode_operation(decode_operation(with)), with);
+  EXPECT_THROW(decode_operation(with.substr(0, with.size() - 1)), InputError) << "version 2 without its floor";
+  std::string v1_with_floor = with;
+  v1_with_floor[0] = 1;
+  EXPECT_THROW(decode_operation(v1_with_floor), InputError) << "a byte left over in version 1";
+}
+
 TEST(Operation, ValuesOutOfRangeAreRefusedSayingWhat) {
   const auto saved = test::read_samples("operations.txt");
   auto named = [&](const std::string& name) {
@@ -323,7 +343,11 @@ TEST(Operation, ValuesOutOfRangeAreRefusedSayingWhat) {
   std::string version = named("undo");
   version[0] = 0;
   EXPECT_EQ(refusal([&] { decode_operation(version); }),
-            "operation is malformed at byte 2: operation format version 0; this Kiji reads versions 1 to 1: use a newer Kiji");
+            "operation is malformed at byte 2: operation format version 0; this Kiji reads versions 1 to 2: no Kiji "
+            "writes version 0, so the bytes are damaged or not Kiji's");
+  version[0] = 3;
+  EXPECT_EQ(refusal([&] { decode_operation(version); }),
+            "operation is malformed at byte 2: operation format version 3; this Kiji reads versions 1 to 2: use a newer Kiji");
   EXPECT_EQ(refusal([&] { decode_operation(named("undo") + "zz"); }),
             "operation is malformed at byte 15: 2 bytes are left over after the operation");
 
@@ -408,7 +432,7 @@ TEST(Operation, ValuesOutOfRangeAreRefusedSayingWhat) {
   SolverParams p;
   p.substeps = 0;
   EXPECT_EQ(refusal([&] { decode_operation(encode_operation({1, 0, op::SetSolverParams{p}})); }).rfind(
-                "operation is malformed at byte 122: the solver parameters are out of range: ", 0),
+                "operation is malformed at byte 123: the solver parameters are out of range: ", 0),
             0u);
   std::string model = encode_operation({1, 0, op::SetSolverParams{SolverParams{}}});
   model[15] = 2;

@@ -289,7 +289,8 @@ void prepare_body_field(SolverArrays& s, double th) {
   if (s.body && (!s.field || need + s.field->cell_radius() > s.field->band())) s.field = BodyField::of(*s.body, need);
 }
 
-void resolve_body(SolverArrays& s, const BodyCollider& collider, const std::vector<int>& verts, double th, double mu) {
+void resolve_body(SolverArrays& s, const BodyCollider& collider, const std::vector<int>& verts, double th, double mu,
+                  bool floor) {
   prepare_body_field(s, th);
   const BodyField& f = *s.field;
   const double reach = (1 + kHeldMargin) * th + f.cell_radius();
@@ -329,6 +330,24 @@ void resolve_body(SolverArrays& s, const BodyCollider& collider, const std::vect
       collider.triangles_in_box(b, tris);
       if (!tris.empty()) resolve_body_against(s, i, th, mu, tris.data(), static_cast<int>(tris.size()));
       else s.held_up[i] = 0;
+    }
+  });
+  if (!floor) return;
+  // The floor through the body's lowest point: a vertex that came from above it is kept the
+  // thickness above it, with friction on its motion along it, as the body keeps it.
+  const double ground = s.body_bounds.min().y(), rest = ground + th;
+  parallel::for_range(na, 2048, [&](int b, int e) {
+    for (int a = b; a < e; ++a) {
+      const int i = verts[a];
+      Vec3& x = s.x[i];
+      if (!(x.y() < rest) || !(s.xp[i].y() >= ground)) continue;
+      const double push = rest - x.y();
+      x.y() = rest;
+      const Vec3 dx = x - s.xp[i];
+      const Vec3 tan(dx.x(), 0, dx.z());
+      const double lt = tan.norm();
+      if (mu > 0 && lt > 0) x -= (lt <= mu * push) ? tan : Vec3(tan * (mu * push / lt));
+      s.held_up[i] = s.up.y() > 0;
     }
   });
 }

@@ -2,9 +2,11 @@
 // hang on or leak on; garment and body import share them. Private to libkiji.
 #pragma once
 
+#include <cstddef>
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <string_view>
 
 namespace Assimp {
 class Importer;
@@ -35,18 +37,58 @@ void prepare_importer(Assimp::Importer& importer, const std::string& path, const
 
 // Checks a glTF document (its JSON text; `bin` a glb's binary chunk; `folder` where its files lie)
 // against what assimp 5.2's glTF 2 importer reads safely, and throws InputError, starting with
-// `what`, for anything else: see import_gltf.cpp.
+// `what`, for anything else: see check_gltf.cpp.
 void check_gltf_document(const std::string& text, const std::string& what, const std::optional<std::string>& bin,
                          const std::filesystem::path& folder);
 
 // Walks a binary FBX file as assimp 5.2's tokenizer walks it, and throws InputError, starting with
-// `what`, for what its reader does not survive: see import_fbx.cpp.
+// `what`, for what its reader does not survive: see check_fbx.cpp.
 void check_fbx_binary(const std::string& bytes, const std::string& what);
 
 // Follows assimp 5.2's PLY reader over a PLY file's bytes and throws InputError, starting with
 // `what`, before it would allocate what the file cannot hold (an element count or a list length
 // past the data), read past its own buffer, or run out of data.
 void check_ply_as_assimp_reads(const std::string& bytes, const std::string& what);
+
+// The checks of each format, made by check_before_assimp (import_checks.cpp) on a file assimp may
+// read as that format; those named check_ throw InputError, starting with `what`.
+
+// `text` in lower case (ASCII), as assimp compares names and magic words.
+std::string lowercase(std::string text);
+// The extension of `path` in lower case, with its dot (".obj"), as assimp picks an importer by it.
+std::string lower_extension(const std::string& path);
+
+// check_obj.cpp: an OBJ's lines, split as assimp splits them, refused where a face names what the file lacks.
+void check_obj_indices(const std::string& path, const std::string& what);
+// check_obj.cpp: what in a material file assimp's MTL reader would crash on, or "" if nothing.
+std::string mtl_problem(const std::string& bytes);
+
+// check_stl.cpp: where `text` holds an integer of 20 digits or more, which assimp's number reader cannot pass.
+std::optional<std::size_t> long_integer(std::string_view text);
+// check_stl.cpp: an STL file's bytes, refused for a UTF-32 mark or an ASCII integer assimp cannot read past.
+void check_stl(const std::string& bytes, const std::string& what);
+// check_stl.cpp: whether assimp takes the file at `path` for STL by its first 200 bytes.
+bool stl_magic(const std::string& path);
+// check_stl.cpp: whether assimp takes a file starting with `head` for OFF.
+bool off_magic(std::string_view head);
+// check_stl.cpp: an OFF file's header and faces, read as assimp's OFF reader reads them.
+void check_off(std::string text, const std::string& what);
+
+// check_fbx.cpp: a text FBX's connections, refused where a model is its own ancestor or has two parents.
+void check_fbx_text_connections(const std::string& path, const std::string& what);
+
+// check_ply.cpp: whether assimp takes a file starting with `head` for PLY ("ply" ending a line near its start).
+bool ply_magic(std::string_view head);
+// check_ply.cpp: a PLY header's lines (up to `header_end`; its data from `data_start`) as the format defines them.
+void check_ply_header(const std::string& bytes, std::size_t header_end, std::size_t data_start,
+                      const std::string& what);
+
+// check_collada.cpp: whether assimp takes the file at `path` for Collada by its first 200 bytes.
+bool collada_magic(const std::string& path);
+// check_collada.cpp: a Collada document's text, refused for what assimp would read without end or crash on.
+void check_collada(std::string text, const std::string& what);
+// check_collada.cpp: every Collada document in a zip (.zae), checked as check_collada checks a .dae.
+void check_zipped_collada(const std::string& path, const std::string& what);
 
 // After importer.ReadFile(path, 0) gave a scene: refuses a face of no corners or one naming a vertex
 // its mesh lacks, sets each mesh's primitive types from its faces (an importer can claim polygons it

@@ -1,11 +1,16 @@
-// A binary FBX file walked as assimp 5.2's binary tokenizer walks it: see import_checks.h.
+// An FBX file checked before assimp 5.2 reads it: the text form's connections, and the binary
+// form walked as its binary tokenizer walks it: see import_checks.h.
 #include "import/import_checks.h"
 
 #include "kiji/error.h"
 
 #include <cstdint>
+#include <cstdlib>
+#include <fstream>
 #include <map>
+#include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace kiji::detail {
@@ -187,5 +192,71 @@ class FbxBinary {
 }  // namespace
 
 void check_fbx_binary(const std::string& bytes, const std::string& what) { FbxBinary(bytes, what).check(); }
+
+// assimp 5.2 follows an FBX model's parents without looking for a loop: a model connected to
+// itself, or two to each other, recurse until the stack overflows. The text form's connections
+// ('C: "OO",child,parent') are read here; the binary form is left to assimp.
+void check_fbx_text_connections(const std::string& path, const std::string& what) {
+  std::ifstream in(path, std::ios::binary);
+  std::map<long long, std::vector<long long>> parents;
+  std::set<long long> models;
+  std::string line;
+  while (std::getline(in, line)) {
+    std::size_t at = line.find_first_not_of(" \t");
+    if (at != std::string::npos && line.compare(at, 6, "Model:") == 0) {
+      char* after = nullptr;
+      const long long id = std::strtoll(line.c_str() + at + 6, &after, 10);
+      if (after != line.c_str() + at + 6) models.insert(id);
+      continue;
+    }
+    if (at == std::string::npos || line.compare(at, 2, "C:") != 0) continue;
+    const std::size_t oo = line.find("\"OO\"", at);
+    if (oo == std::string::npos) continue;
+    const char* c = line.c_str() + oo + 4;
+    long long ids[2];
+    bool ok = true;
+    for (long long& id : ids) {
+      while (*c == ' ' || *c == '\t' || *c == ',') ++c;
+      char* after = nullptr;
+      id = std::strtoll(c, &after, 10);
+      ok = ok && after != c;
+      c = after;
+    }
+    if (ok) parents[ids[0]].push_back(ids[1]);
+  }
+  // Depth-first along parents: an object met again on its own path is its own ancestor.
+  std::map<long long, int> state;  // 1: on the path, 2: done
+  for (const auto& [start, unused] : parents) {
+    if (state[start]) continue;
+    std::vector<std::pair<long long, std::size_t>> stack{{start, 0}};
+    state[start] = 1;
+    while (!stack.empty()) {
+      auto& [id, next] = stack.back();
+      const auto found = parents.find(id);
+      if (found == parents.end() || next == found->second.size()) {
+        state[id] = 2;
+        stack.pop_back();
+        continue;
+      }
+      const long long parent = found->second[next++];
+      if (state[parent] == 1)
+        throw InputError(what + ": its FBX connections make object " + std::to_string(parent) +
+                         " its own ancestor; export the file again");
+      if (state[parent] == 0) {
+        state[parent] = 1;
+        stack.push_back({parent, 0});
+      }
+    }
+  }
+  // A model linked to two parent models (or to one twice) is copied, with all under it, once for
+  // each: the tree doubles a level.
+  for (const auto& [child, ups] : parents) {
+    if (!models.count(child)) continue;
+    int links = 0;
+    for (long long up : ups) links += up == 0 || models.count(up);
+    if (links > 1)
+      throw InputError(what + ": its FBX model " + std::to_string(child) + " has two parents; export the file again");
+  }
+}
 
 }  // namespace kiji::detail

@@ -1,4 +1,5 @@
-// A PLY file read the way assimp 5.2's PLY reader reads it, before assimp does: see import_checks.h.
+// A PLY file's header checked as the format defines it, then the file read the way assimp 5.2's
+// PLY reader reads it, before assimp does: see import_checks.h.
 #include "import/import_checks.h"
 
 #include "kiji/error.h"
@@ -10,13 +11,106 @@
 #include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <map>
 #include <optional>
+#include <sstream>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace kiji::detail {
 
 namespace {
+
+// The size of a PLY property type in a binary file, or 0 for a name PLY does not define.
+std::size_t ply_type_size(const std::string& type) {
+  static const std::map<std::string, std::size_t> sizes = {
+      {"char", 1},  {"int8", 1},    {"uchar", 1},  {"uint8", 1},   {"short", 2},   {"int16", 2},  {"ushort", 2},
+      {"uint16", 2}, {"int", 4},    {"int32", 4},  {"uint", 4},    {"uint32", 4},  {"float", 4},  {"float32", 4},
+      {"double", 8}, {"float64", 8}, {"double64", 8}};
+  const auto it = sizes.find(type);
+  return it == sizes.end() ? 0 : it->second;
+}
+
+// A PLY header's lines as the format defines them, one a line: each element and property line well
+// formed and of types PLY defines, one format line before the elements, each element once and with
+// properties, and no element count the rest of the file cannot hold. Header lines PLY does not define
+// (Blender 2.47 wrote one) are passed over, as assimp passes over them. What assimp then does with
+// the file is followed by check_ply_as_assimp_reads.
+class PlyChecker {
+ public:
+  PlyChecker(const std::string& bytes, std::size_t header_end, std::size_t data_start, std::string what)
+      : bytes_(bytes), header_end_(header_end), data_(data_start), what_(std::move(what)) {}
+
+  void check() { read_header(); }
+
+ private:
+  struct Property {
+    std::string type, count_type;  // count_type empty: a single value
+    std::string name;
+  };
+  struct Element {
+    std::string name;
+    std::uint64_t count = 0;
+    std::vector<Property> properties;
+  };
+
+  [[noreturn]] void fail(const std::string& why) const { throw InputError(what_ + ": " + why + "; export the file again"); }
+
+  void read_header() {
+    std::size_t line_start = bytes_.find('\n') + 1;  // the first line holds "ply" (found before)
+    for (int number = 2; line_start < header_end_; ++number) {
+      std::size_t line_end = bytes_.find('\n', line_start);
+      if (line_end == std::string::npos || line_end > header_end_) line_end = header_end_;
+      const std::string line = bytes_.substr(line_start, line_end - line_start);
+      line_start = line_end + 1;
+      std::istringstream words(line);
+      std::vector<std::string> w;
+      for (std::string word; words >> word;) w.push_back(word);
+      auto bad = [&] {
+        std::string shown;
+        for (unsigned char c : line.substr(0, 60)) shown += std::isprint(c) ? static_cast<char>(c) : '?';
+        fail("its PLY header line " + std::to_string(number) + " ('" + shown + "') is not one PLY defines");
+      };
+      if (w.empty()) continue;
+      if (w[0] == "format") {
+        if (w.size() != 3 || (w[1] != "ascii" && w[1] != "binary_little_endian" && w[1] != "binary_big_endian") ||
+            w[2] != "1.0" || !format_.empty() || !elements_.empty())
+          bad();
+        format_ = w[1];
+      } else if (w[0] == "element") {
+        if (w.size() != 3 || w[2].size() > 10 || w[2].find_first_not_of("0123456789") != std::string::npos) bad();
+        // Each element once, and each with its properties: assimp takes the first of a name.
+        for (const Element& e : elements_)
+          if (e.name == w[1]) bad();
+        if (!elements_.empty() && elements_.back().properties.empty())
+          fail("its PLY element " + elements_.back().name + " has no properties");
+        elements_.push_back({w[1], std::stoull(w[2]), {}});
+      } else if (w[0] == "property") {
+        if (elements_.empty()) bad();
+        if (w.size() == 3 && ply_type_size(w[1]) > 0) elements_.back().properties.push_back({w[1], "", w[2]});
+        else if (w.size() == 5 && w[1] == "list" && ply_type_size(w[2]) > 0 && ply_type_size(w[3]) > 0)
+          elements_.back().properties.push_back({w[3], w[2], w[4]});
+        else bad();
+      }
+    }
+    if (format_.empty()) fail("its PLY header has no format line");
+    if (!elements_.empty() && elements_.back().properties.empty())
+      fail("its PLY element " + elements_.back().name + " has no properties");
+    // An element of no properties takes no bytes; assimp still makes each of its elements.
+    const std::uint64_t room = bytes_.size() - data_;
+    for (const Element& e : elements_)
+      if (e.count > room + 1)
+        fail("its PLY header declares " + std::to_string(e.count) + " " + e.name + " elements, more than the " +
+             std::to_string(room) + " bytes after its header can hold");
+  }
+
+  const std::string& bytes_;
+  std::size_t header_end_, data_;
+  std::string what_;
+  std::string format_;
+  std::vector<Element> elements_;
+};
 
 // A std::vector<char> as assimp's PLY reader uses its line buffer: erased from the front, resized
 // at the back (new bytes zero), and never cleared, so bytes of longer lines before stay behind a
@@ -585,6 +679,22 @@ class PlyReading {
 };
 
 }  // namespace
+
+// The word "ply" ending a line near the start of a file, as assimp finds a PLY file by its content
+// (it need not be the very first bytes).
+bool ply_magic(std::string_view head) {
+  head = head.substr(0, 16);
+  for (std::size_t at = head.find("ply"); at != std::string_view::npos; at = head.find("ply", at + 1)) {
+    const bool starts = at == 0 || !std::isalnum(static_cast<unsigned char>(head[at - 1]));
+    const bool ends = at + 3 < head.size() && (head[at + 3] == '\n' || head[at + 3] == '\r');
+    if (starts && ends) return true;
+  }
+  return false;
+}
+
+void check_ply_header(const std::string& bytes, std::size_t header_end, std::size_t data_start, const std::string& what) {
+  PlyChecker(bytes, header_end, data_start, what).check();
+}
 
 void check_ply_as_assimp_reads(const std::string& bytes, const std::string& what) { PlyReading(bytes, what).check(); }
 

@@ -19,8 +19,10 @@ ana_session.add_garment(g)
 ben_session = kiji.Session()
 out = {}
 
-with kiji.Peer(ana_session, key=KEY, host=True, name="ana", stop_step=STOP) as ana, \
-        kiji.Peer(ben_session, key=KEY, name="ben") as ben:
+# A lease outlives its user's last event by lease_seconds of the shared clock, which runs on while a
+# loaded machine delays Ana's pinch behind Ben's pull: a minute keeps his cloth held until then.
+with kiji.Peer(ana_session, key=KEY, host=True, name="ana", stop_step=STOP, lease_seconds=60) as ana, \
+        kiji.Peer(ben_session, key=KEY, name="ben", lease_seconds=60) as ben:
     out["joined"] = ben.wait_joined(10)
     out["ben_garments"] = ben_session.garment_count if isinstance(ben_session.garment_count, int) else ben_session.garment_count()
     try:

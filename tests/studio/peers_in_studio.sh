@@ -80,7 +80,9 @@ print("peer:", {k: peer[k] for k in ("steps", "state_hash", "applied", "replayed
 names = {r["name"]: r for r in app["peers"]}
 assert "studio (you)" in names and names["studio (you)"]["role"] == "sequencer", f"the app's own row: {names}"
 assert "puller" in names, f"the app does not list the peer that joined: {list(names)}"
-assert names["puller"]["present"] and names["puller"]["state"] == "agrees", names["puller"]
+# The peer stops with the shared clock and may have left before the app writes its list (seen
+# under load): then it is listed gone, having agreed.
+assert names["puller"]["state"] == "agrees" and (names["puller"]["present"] or names["puller"]["role"] == "gone"), names["puller"]
 events = len(json.load(open(sys.argv[2]))["strokes"][0]["events"])
 assert peer["replayed_events"] == events and not peer["refusals"], "the peer did not play its whole stroke"
 # The clock stops 6 s after the app began hosting (its scene's clock ran a little before).

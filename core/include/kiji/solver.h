@@ -144,8 +144,7 @@ class Solver {
   // that a topology edit removes is dropped.
   // Xpbd solves a plain attachment in the same sweep as the cloth's own constraints, before them,
   // so that the cloth pulls back: a hand brings the cloth along as far as the cloth's stiffness
-  // carries it in the step, and does not stretch it past its strain limit (a hand of 50 N/m on one
-  // corner of a fine cloth, projected last, pulled it out as a spike 7 to 30 times its length). The
+  // carries it in the step, and does not pull a fine cloth out as a spike past its strain limit. The
   // hand has a mass of its own, carried by the vertex it holds, so that the cloth gets the hand's
   // stiffness however light the vertex (a cloth of weight W hangs W / k below the target), and its
   // target moves from where it was at the last step to where it is now over the step's substeps. A

@@ -239,14 +239,8 @@ void schedule(std::size_t count, std::size_t n, const std::vector<int>& block, i
 //
 // The anchor taken at an unmarked vertex is the one of it and its unmarked neighbours (on the same
 // side of the outline: inside, or on it) with the most edges, the one that reaches the most cloth
-// within S - 1 edges. Taking the vertex itself, as it came in Morton order, let the anchors follow
-// the triangulation: on make_rectangle's grid, whose diagonals alternate like a checkerboard, a
-// vertex has 8 edges or 4, and the anchors S = 2 apart were the 8-edge vertices (a quarter of
-// them) when the grid's side was odd, but often the 4-edge ones (every second vertex) when it was
-// even: 9.6 limits a vertex instead of 3.9, and every one of them is work in every substep. With
-// the choice, an
-// even side gets 3.8 a vertex; an odd side, whose anchors were already the 8-edge vertices, gets
-// the same limits, in the same order, as before.
+// within S - 1 edges: so the anchors, and the limits every substep pays for, do not follow the
+// triangulation's pattern of diagonals (on a grid, every second vertex instead of every fourth).
 void build_long_range(SolverArrays& s) {
   s.l_i.clear();
   s.l_j.clear();

@@ -46,8 +46,8 @@ struct Constraints {
 
 // Copies of the ranges [offsets[c], offsets[c + 1]) keeping those `keep` says (0 or 1), with the
 // same number of ranges (each keeps its index, and so its kind). Without a branch a constraint:
-// each is copied to the next place, which moves on only if it is kept (under a local region about
-// half the constraints are, scattered, and a branch on each was mispredicted often). The copies
+// each is copied to the next place, which moves on only if it is kept (under a local region the
+// kept constraints are scattered, so a branch on each would be mispredicted often). The copies
 // are sized for all the constraints; the ranges say how many are kept.
 template <typename Keep, typename Put>
 void select_ranges(const std::vector<int>& offsets, std::vector<int>& out_offsets, Keep keep, Put put) {
@@ -213,8 +213,9 @@ void with_multipliers(bool multipliers, const std::vector<int>& offsets, const s
 // Projects every edge beyond (1 +- limit) x rest back to the limit (Provot 1995): Gauss-Seidel
 // passes over the edges found beyond it. Fixing one edge can push a neighbour past the limit, so
 // the edges are looked for again, a few rounds at most; each round costs one scan of the edges and
-// the passes touch only the offending ones. One round of four passes left fold and crown edges at
-// 9-14 % on a 10,000-vertex drape; four rounds of two bring them to 6-7 %.
+// the passes touch only the offending ones. Short rounds, looked for again, reach the folds and
+// crowns that one long round leaves beyond the limit (docs/benchmarks.md, "Figures behind the
+// solver's choices").
 void limit_strain(SolverArrays& s, const Constraints& cs, double limit) {
   constexpr int kRounds = 4, kPasses = 2;
   Vec3* X = s.x.data();
@@ -223,8 +224,8 @@ void limit_strain(SolverArrays& s, const Constraints& cs, double limit) {
   const double hi = 1 + limit, lo = 1 - limit, hi2 = hi * hi, lo2 = lo * lo;
   for (int round = 0; round < kRounds; ++round) {
     // The scan in contiguous pieces (in parallel), each into its own list, joined in order.
-    // Without a branch an edge: a sixth of the edges or more are beyond the limit in a garment
-    // pulled taut, scattered, and a branch on each was mispredicted often.
+    // Without a branch an edge: in a garment pulled taut the edges beyond the limit are many and
+    // scattered, so a branch on each would be mispredicted often.
     const int pieces = std::max(1, std::min(32, ne / 1024));
     s.over_pieces.resize(pieces);
     s.over_found.resize(pieces);
@@ -299,11 +300,10 @@ void limit_strain(SolverArrays& s, const Constraints& cs, double limit) {
 //   substeps / K * (gathers' own cost + pairs(K)) + substeps * 0.13 * pairs(K),
 //   pairs(K) ~ sum over the moving vertices of (th + K / substeps * |motion - cluster's motion|)^2,
 // with the gathers' own cost worth 1.2 spacing^2 of reach^2 a vertex and a pair looked at in a
-// substep 0.13 of a pair gathered (measured on the 20,000-vertex stroke over the shoulders: a
-// gather 15 ms at rest and 225 ns a pair, resolving 30 ns a pair a substep). Cloth at rest or
-// moving together gets the whole step; cloth in a hurry a few substeps. (Priced against the
-// motion less the whole cloth's mean, as the culling once was, a finer mesh of the same falling
-// cloth moved more spacings and got shorter windows: 1.8 gathers a step at 100,000 vertices.)
+// substep 0.13 of a pair gathered (the ratios of their measured costs: docs/benchmarks.md,
+// "Figures behind the solver's choices"). Cloth at rest or moving together gets the whole step;
+// cloth in a hurry a few substeps. The motion is priced against its own cluster's, not the whole
+// cloth's mean, so that a finer mesh of the same cloth does not get shorter windows.
 static int self_window(const SolverArrays& s, const SolverParams& p, double th) {
   const int substeps = p.substeps;
   if (!p.self_collision || substeps == 1) return substeps;

@@ -242,9 +242,8 @@ void resolve_body_against(SolverArrays& s, int i, double th, double mu, const in
       if (geom::segment_crosses_triangle(xp, x, T.a, T.b, T.c, t)) {
         // Back to the side it came from, along the triangle's normal: only the motion through the
         // surface is undone; the motion along it is kept, for friction to take what it may.
-        // Stopping the vertex where it crossed was a friction without limit: an edge pulled
-        // around the head by the strain limit (its chord dips into the head) was stopped every
-        // substep, and stayed stretched 12-fold.
+        // Stopping the vertex where it crossed would be friction without limit: an edge pulled
+        // around the head by the strain limit (its chord dips into the head) would stay stretched.
         const Vec3 nx = x + (th - dn) * T.n;
         push += th - dn;
         nrm = T.n;

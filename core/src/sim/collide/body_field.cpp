@@ -170,9 +170,11 @@ std::int64_t BodyField::cell_of(const Vec3& p) const {
   const double inv = 1.0 / cell_;
   std::int64_t c[3];
   for (int a = 0; a < 3; ++a) {
-    if (!std::isfinite(p[a])) return -1;
-    c[a] = floor_of((p[a] - origin_[a]) * inv);
-    if (c[a] < 0 || c[a] >= std::int64_t(blocks_[a]) * kBlock) return -1;
+    // Compared as a double before any conversion: a point far off (or not finite) has a cell
+    // index no integer holds.
+    const double g = (p[a] - origin_[a]) * inv;
+    if (!(g >= 0 && g < double(blocks_[a]) * kBlock)) return -1;
+    c[a] = static_cast<std::int64_t>(g);
   }
   const std::size_t b = (std::size_t(c[2] / kBlock) * blocks_[1] + std::size_t(c[1] / kBlock)) * blocks_[0] +
                         std::size_t(c[0] / kBlock);

@@ -1,6 +1,7 @@
 #include "sim/collide/body_field.h"
 
 #include "base/geometry.h"
+#include "kiji/codec.h"
 #include "base/parallel.h"
 
 #include <algorithm>
@@ -13,14 +14,21 @@ namespace kiji::solver_detail {
 
 namespace {
 
-// The fields built last, kept while a solver holds them and the last two besides, so that a new
-// session on the same body (a test, a peer, a script that loads the body again) does not build it
-// again.
+// The fields built last, kept while a solver holds them and the last two besides, found by the
+// body's triangles, so that a new session on the same body (a test, each peer's copy decoded from
+// the wire, a script that loads the body again) does not build it again.
 struct Cache {
   std::mutex mutex;
   std::map<std::uint64_t, std::weak_ptr<const BodyField>> fields;
   std::shared_ptr<const BodyField> recent[2];
 };
+
+std::uint64_t content_key(const Body& body) {
+  const auto& V = body.vertices();
+  const auto& T = body.triangles();
+  const std::uint64_t h = hash_bytes(std::string_view(reinterpret_cast<const char*>(V.data()), V.size() * sizeof(V[0])));
+  return hash_bytes(std::string_view(reinterpret_cast<const char*>(T.data()), T.size() * sizeof(T[0])), h);
+}
 
 Cache& cache() {
   static Cache c;
@@ -36,15 +44,16 @@ inline std::int64_t floor_of(double x) {
 
 std::shared_ptr<const BodyField> BodyField::of(const Body& body, double reach) {
   Cache& c = cache();
+  const std::uint64_t key = content_key(body);
   {
     std::lock_guard<std::mutex> lock(c.mutex);
-    auto it = c.fields.find(body.geometry_id());
+    auto it = c.fields.find(key);
     if (it != c.fields.end())
       if (auto field = it->second.lock(); field && reach + field->cell_radius() <= field->band()) return field;
   }
   auto field = std::make_shared<const BodyField>(body, reach);
   std::lock_guard<std::mutex> lock(c.mutex);
-  c.fields[body.geometry_id()] = field;
+  c.fields[key] = field;
   c.recent[1] = c.recent[0];
   c.recent[0] = field;
   for (auto it = c.fields.begin(); it != c.fields.end();) it = it->second.expired() ? c.fields.erase(it) : std::next(it);

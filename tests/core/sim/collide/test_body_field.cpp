@@ -78,16 +78,21 @@ TEST(BodyField, EveryTriangleWithinReachOfAPointIsInItsCellsList) {
   EXPECT_GT(near, 1000);
 }
 
-TEST(BodyField, IsSharedByCopiesOfABodyAndWidenedForAThickerCloth) {
+TEST(BodyField, IsSharedByBodiesOfTheSameTrianglesAndWidenedForAThickerCloth) {
   const Body body = test::make_sphere(0.1, Vec3::Zero(), 2);
   const Body copy = body;
   const auto f1 = BodyField::of(body, 0.004);
   const auto f2 = BodyField::of(copy, 0.004);
   EXPECT_EQ(f1.get(), f2.get()) << "a copy of a body has the same field";
+  // The same triangles made again (as each peer decodes the body from the wire) share it too; a
+  // body with other triangles has its own.
+  const Body again = test::make_sphere(0.1, Vec3::Zero(), 2);
+  EXPECT_EQ(BodyField::of(again, 0.004).get(), f1.get()) << "the same triangles, loaded again";
+  const Body other = test::make_sphere(0.11, Vec3::Zero(), 2);
+  EXPECT_NE(BodyField::of(other, 0.004).get(), f1.get()) << "another body its own";
   const auto thick = BodyField::of(body, 0.03);  // a 3 cm padding
   EXPECT_GE(thick->band(), 0.03 + thick->cell_radius());
-  const Body other = test::make_sphere(0.1, Vec3::Zero(), 2);
-  EXPECT_NE(BodyField::of(other, 0.004).get(), f1.get()) << "another body (its own geometry id) its own";
+  EXPECT_EQ(BodyField::of(again, 0.004).get(), thick.get()) << "the wider field serves a thinner cloth";
 }
 
 TEST(BodyField, PointsFarAwayOrNotFiniteAreInNoCell) {

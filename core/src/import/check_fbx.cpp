@@ -217,10 +217,15 @@ void check_fbx_text_connections(const std::string& path, const std::string& what
     bool ok = true;
     for (long long& id : ids) {
       while (*c == ' ' || *c == '\t' || *c == ',') ++c;
-      char* after = nullptr;
-      id = std::strtoll(c, &after, 10);
-      ok = ok && after != c;
-      c = after;
+      // As assimp reads an id token: its leading digits (none: 0), whatever follows them up to the
+      // next separator ignored, so "2000!" is 2000 to it and must be here.
+      const char* start = c;
+      unsigned long long v = 0;
+      for (; *c >= '0' && *c <= '9'; ++c)
+        if (v < (1ull << 59)) v = v * 10 + static_cast<unsigned>(*c - '0');
+      while (*c && *c != ',' && *c != ' ' && *c != '\t' && *c != '\r') ++c;
+      ok = ok && c != start;
+      id = static_cast<long long>(v);
     }
     if (ok) parents[ids[0]].push_back(ids[1]);
   }

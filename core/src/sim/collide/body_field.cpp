@@ -65,13 +65,14 @@ BodyField::BodyField(const Body& body, double reach) {
   const auto& T = body.triangles();
   Box3 bounds = body.bounds();
   // Cells of 5 mm (a body of 1.7 m takes some 10^6 of them near its surface); coarser for a large
-  // body, so that no body takes more than about 4 million.
+  // body, so that none takes more than about a million: a field is built whenever a session gets a
+  // body.
   const double area_guess = 2.0 * (bounds.sizes().x() * bounds.sizes().y() + bounds.sizes().y() * bounds.sizes().z() +
                                    bounds.sizes().x() * bounds.sizes().z());
   // The band: 1 cm, or what a thicker cloth needs (its reach, and the farthest a point of a cell is
   // from its centre).
   band_ = std::max(0.01, reach);
-  cell_ = std::max(0.005, std::cbrt(area_guess * 2 * band_ / 4e6));
+  cell_ = std::max(0.005, std::cbrt(area_guess * 2 * band_ / 1e6));
   band_ = std::max(band_, reach + cell_radius());
   origin_ = bounds.min() - Vec3::Constant(band_ + cell_);
   const double block_side = kBlock * cell_;

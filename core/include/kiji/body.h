@@ -64,8 +64,9 @@ class Body {
   // triangles, or non-finite coordinates, and for a file on which the reading process crashed or
   // passed options.limits; the message names the file and the problem. This process is unharmed.
   static Body load(const std::string& path, const BodyImportOptions& options = {});
-  // A body from triangles already in metres, +Y up (checked like a file); `report` says where
-  // they came from.
+  static constexpr double kLargestBody = 1000.0;  // metres
+  // A body from triangles already in metres, +Y up (checked like a file, and at most
+  // kLargestBody across); `report` says where they came from.
   static Body from_triangles(std::vector<Vec3> vertices, std::vector<std::array<int, 3>> triangles,
                              std::string name = "body", BodyImportReport report = {});
   // The default body: human.zae from Debian's assimp-testmodels.

@@ -48,9 +48,17 @@ Body Body::from_triangles(std::vector<Vec3> vertices, std::vector<std::array<int
         throw InputError("body '" + name + "' triangle " + std::to_string(t) +
                          " refers to a vertex that does not exist");
   Body b;
+  for (const auto& v : vertices) b.bounds_.extend(v);
+  // Bodies are in metres; one kilometres across is a file in other units or a damaged one, and
+  // the distance field (sim/collide) could not make cells fine enough to hold cloth on it.
+  if (const double across = b.bounds_.sizes().maxCoeff(); !(across <= kLargestBody)) {
+    std::ostringstream msg;
+    msg << "body '" << name << "' is " << across << " m across, more than " << kLargestBody
+        << " m: its coordinates are read as metres (a figure is about 1.7 m); give its height or scale when importing it";
+    throw InputError(msg.str());
+  }
   b.name_ = std::move(name);
   b.vertices_ = std::move(vertices);
-  for (const auto& v : b.vertices_) b.bounds_.extend(v);
   b.triangles_ = std::move(triangles);
   b.report_ = std::move(report);
   static std::atomic<std::uint64_t> last_id{0};

@@ -992,6 +992,17 @@ TEST(BodyImportErrors, NanAndInfCoordinates) {
   }
 }
 
+TEST(BodyImportErrors, ABodyKilometresAcrossIsRefusedAndOneOfMetresIsNot) {
+  // Coordinates read as metres that make a body 5 km across (a file in other units, or damaged
+  // bytes from a peer): refused with what to do, where the solver would have gridded all of it.
+  const std::string msg = input_error([&] {
+    Body::from_triangles({{0, 0, 0}, {5000, 0, 0}, {0, 1, 0}}, {{{0, 1, 2}}}, "far");
+  });
+  EXPECT_NE(msg.find("'far' is 5000 m across"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("height or scale"), std::string::npos) << msg;
+  EXPECT_NO_THROW(Body::from_triangles({{0, 0, 0}, {Body::kLargestBody, 0, 0}, {0, 1, 0}}, {{{0, 1, 2}}}, "a field"));
+}
+
 TEST(BodyImportErrors, InfinitiesInAGlb) {
   const std::string path = models + "/glTF2/BoxWithInfinites-glTF-Binary/BoxWithInfinites.glb";
   const std::string msg = input_error([&] { Body::load(path); });

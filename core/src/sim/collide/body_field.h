@@ -1,13 +1,17 @@
 // A body's distance field: the distance from the body's surface at the centres of a grid's cells
-// near it, and for each such cell the triangles near enough to touch cloth in it. Built
-// once for a body (shared by every garment's solver while one holds it), so that a cloth vertex
-// far from the body costs one look-up a substep and a vertex near it is tested exactly against
-// the few triangles its cell lists, where gathering candidates from a tree every step cost the
-// whole garment's boxes. Private to libkiji.
+// near it, and for each such cell the triangles near enough to touch cloth in it. Made once for a
+// body (shared by every garment's solver while one holds it), so that a cloth vertex far from the
+// body costs one look-up a substep and a vertex near it is tested exactly against the few
+// triangles its cell lists, where gathering candidates from a tree every step cost the whole
+// garment's boxes. A block of cells is filled in when a point first falls in it: a garment touches
+// a small part of a body, and filling all of it cost a second a body (ten under the sanitizers).
+// Private to libkiji.
 #pragma once
 
 #include "kiji/body.h"
 
+#include <array>
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -20,6 +24,9 @@ class BodyField {
   // one built for the body or a copy of it and still in use, if it reaches that far).
   static std::shared_ptr<const BodyField> of(const Body& body, double reach);
   BodyField(const Body& body, double reach);
+  ~BodyField();
+  BodyField(const BodyField&) = delete;
+  BodyField& operator=(const BodyField&) = delete;
 
   // The cell side (m) and how far from the surface the field reaches (m): beyond it a cell is far.
   double cell() const { return cell_; }
@@ -27,26 +34,47 @@ class BodyField {
   // Half the cell's diagonal: how far a point of a cell can be from its centre.
   double cell_radius() const { return 0.5 * std::sqrt(3.0) * cell_; }
 
-  // The cell holding p, or -1 when it is further than the band from the body.
+  // The cell holding p, or -1 when it is further than the band from the body. Safe from any number
+  // of threads at once; the cell's block is filled in by the first to ask, the same whoever that is.
   std::int64_t cell_of(const Vec3& p) const;
   // Unsigned distance from the cell's centre to the nearest triangle.
-  float distance(std::int64_t cell) const { return distance_[cell]; }
+  float distance(std::int64_t cell) const { return block(cell)->distance[cell % kCells]; }
   // The triangles whose boxes come within band() of the cell's centre (ascending by index): every
   // triangle within band() - cell_radius() of any point of the cell.
   const int* triangles(std::int64_t cell, int& count) const {
-    count = list_begin_[cell + 1] - list_begin_[cell];
-    return list_.data() + list_begin_[cell];
+    const Block* b = block(cell);
+    const int c = static_cast<int>(cell % kCells);
+    count = b->begin[c + 1] - b->begin[c];
+    return b->list.data() + b->begin[c];
   }
-  std::size_t cells_used() const { return distance_.size(); }
+  // Blocks near the body, and how many of them have been filled in so far.
+  std::size_t blocks_near() const { return near_.size(); }
+  std::size_t blocks_filled() const { return filled_.load(std::memory_order_relaxed); }
 
  private:
   static constexpr int kBlock = 4;  // cells a side of a block
+  static constexpr int kCells = kBlock * kBlock * kBlock;
+  struct Block {
+    float distance[kCells];
+    int begin[kCells + 1];
+    std::vector<int> list;
+  };
+  const Block* block(std::int64_t cell) const { return blocks_[cell / kCells].load(std::memory_order_acquire); }
+  const Block* fill(int slot) const;
+
+  std::vector<Vec3> vertices_;
+  std::vector<std::array<int, 3>> triangles_;
+  std::vector<Box3> boxes_;  // each triangle's
   double cell_ = 0.005, band_ = 0.01;
   Vec3 origin_ = Vec3::Zero();
-  int blocks_[3] = {0, 0, 0};
-  std::vector<int> block_;  // per block of the grid: its first cell in the arrays below, or -1
-  std::vector<float> distance_;
-  std::vector<int> list_begin_, list_;
+  int grid_[3] = {0, 0, 0};  // blocks a side
+  std::vector<int> slot_;    // per block of the grid: its place among the blocks near the body, or -1
+  std::vector<std::size_t> near_;  // per such block: its grid index
+  std::vector<int> near_begin_, near_tris_;  // per such block: the triangles whose grown boxes reach it
+  // Per block near the body: its cells once filled in (null before), and whether one is filling it.
+  std::unique_ptr<std::atomic<const Block*>[]> blocks_;
+  std::unique_ptr<std::atomic<bool>[]> claimed_;
+  mutable std::atomic<std::size_t> filled_{0};
 };
 
 }  // namespace kiji::solver_detail

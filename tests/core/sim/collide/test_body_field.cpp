@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <random>
+#include <thread>
 
 using namespace kiji;
 using kiji::solver_detail::BodyField;
@@ -103,4 +104,49 @@ TEST(BodyField, PointsFarAwayOrNotFiniteAreInNoCell) {
   EXPECT_LT(f->cell_of(Vec3(std::nan(""), 0, 0)), 0);
   EXPECT_LT(f->cell_of(Vec3(1e308, -1e308, 0)), 0);
   EXPECT_GE(f->cell_of(Vec3(0.1, 0, 0)), 0) << "on the surface";
+}
+
+TEST(BodyField, BlocksFilledByManyThreadsInAnyOrderHoldWhatOneThreadFills) {
+  // A block is filled in by the first point to fall in it, from whichever of the solver's threads:
+  // peers compare state hashes, so the field must not depend on who asked first.
+  const Body body = test::make_sphere(0.1, Vec3::Zero(), 3);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<Vec3> points;
+  while (points.size() < 6000) {
+    Vec3 dir(u(rng), u(rng), u(rng));
+    if (dir.norm() < 1e-3) continue;
+    points.push_back((0.1 + 0.012 * u(rng)) * dir.normalized());
+  }
+  const BodyField serial(body, 0.0042);
+  EXPECT_EQ(serial.blocks_filled(), 0u) << "nothing is filled in before a point asks";
+  serial.cell_of(points[0]);
+  EXPECT_EQ(serial.blocks_filled(), 1u);
+  EXPECT_LT(serial.blocks_filled(), serial.blocks_near());
+  std::vector<std::int64_t> cells(points.size());
+  for (std::size_t k = 0; k < points.size(); ++k) cells[k] = serial.cell_of(points[k]);
+
+  const BodyField threaded(body, 0.0042);
+  std::vector<std::int64_t> cells_threaded(points.size());
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 8; ++t)
+    threads.emplace_back([&, t] {
+      // Each thread walks the points from its own start, backwards on odd threads.
+      for (std::size_t n = 0; n < points.size(); ++n) {
+        const std::size_t k = (t % 2 ? points.size() - 1 - n : n + t * 750) % points.size();
+        cells_threaded[k] = threaded.cell_of(points[k]);
+      }
+    });
+  for (auto& th : threads) th.join();
+  EXPECT_EQ(threaded.blocks_filled(), serial.blocks_filled());
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    ASSERT_EQ(cells[k] < 0, cells_threaded[k] < 0) << "point " << k;
+    if (cells[k] < 0) continue;
+    EXPECT_EQ(serial.distance(cells[k]), threaded.distance(cells_threaded[k]));
+    int n1 = 0, n2 = 0;
+    const int* l1 = serial.triangles(cells[k], n1);
+    const int* l2 = threaded.triangles(cells_threaded[k], n2);
+    ASSERT_EQ(n1, n2);
+    EXPECT_TRUE(std::equal(l1, l1 + n1, l2));
+  }
 }

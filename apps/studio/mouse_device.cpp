@@ -4,8 +4,9 @@ namespace kiji::studio {
 
 void MouseDevice::push(const ToolEvent& state) {
   std::lock_guard<std::mutex> lock(mutex_);
-  // Moves between button changes may merge; a button change is never dropped.
-  if (!queue_.empty() && queue_.back().buttons == state.buttons && queue_.size() > 1) queue_.back() = state;
+  // Moves between button changes merge only when the loop falls well behind (the knife follows every
+  // move it gets); a button change is never dropped.
+  if (queue_.size() > 16 && queue_.back().buttons == state.buttons) queue_.back() = state;
   else queue_.push_back(state);
   if (queue_.size() > 256) queue_.pop_front();
   current_ = state;

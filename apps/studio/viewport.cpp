@@ -287,13 +287,36 @@ void Viewport::build_overlay(const SceneFrame& frame, Overlay& overlay, std::vec
 
   // The trail of the stroke while it is drawn: for a cut, the line it will cut; for other tools a
   // thin line, so that what they leave shows.
+  static const QString kClosing = "the cut closes here: let go to cut out what it encloses";
+  bool closing = false;
   if (trail_live_ && trail_.size() >= 2) {
     const bool cut = studio_.tool(buttons_ == kButtonSecondary ? kButtonSecondary : kButtonPrimary) == "cut";
     OverlayLines line{{}, cut ? Vec3(0.85, 0.05, 0.1) : Vec3(0.95, 0.45, 0.1), GL_LINE_STRIP, cut ? 2.5f : 1.5f,
                       cut ? 1.0f : 0.6f};
     for (const Vec3& p : trail_) push(line.xyz, lifted(p));
     overlay.lines.push_back(line);
+    // A cut that will close (the cut tool's rule): its closing piece and a ring where it began, so
+    // that the user sees the inside will come away before letting go.
+    if (cut) {
+      const std::uint32_t button = buttons_ == kButtonSecondary ? kButtonSecondary : kButtonPrimary;
+      const ParamSet& params = studio_.tool_params(button);
+      const double close = params.get_string("mode") == "line" ? params.get_float("close") : 0.0;
+      double away = 0;
+      for (const Vec3& p : trail_) away = std::max(away, (p - trail_.front()).norm());
+      if (close > 0 && trail_.size() >= 4 && (trail_.back() - trail_.front()).norm() <= close && away > 2 * close) {
+        OverlayLines piece{{}, Vec3(0.85, 0.05, 0.1), GL_LINES, 2.5f, 1.0f};
+        push(piece.xyz, lifted(trail_.back()));
+        push(piece.xyz, lifted(trail_.front()));
+        overlay.lines.push_back(piece);
+        OverlayLines ring{{}, Vec3(0.85, 0.05, 0.1), GL_POINTS, 16, 1, true};
+        push(ring.xyz, lifted(trail_.front()));
+        overlay.lines.push_back(ring);
+        say(kClosing);
+        closing = true;
+      }
+    }
   }
+  if (!closing && hint_ == kClosing) say({});
 
   // The pointer: a drop line and a shadow where it would come down on the cloth or the body.
   drop_.reset();

@@ -1,5 +1,8 @@
-// cut: the knife. Along a stroke over the cloth, or, as in the 2006 paper, at one picked vertex
-// that is split in two with its faces shared between the halves.
+// cut: the knife. Along the line the stroke draws on the cloth (through the triangles it crosses),
+// along the mesh edges nearest the stroke (the mode earlier builds had alone, which their journals
+// name),
+// or, as in the 2006 paper, at one picked vertex that is split in two with its faces shared
+// between the halves.
 #include <kiji/error.h>
 #include <kiji/tool.h>
 #include <kiji/topology.h>
@@ -14,49 +17,99 @@ class CutTool : public Tool {
  public:
   ToolInfo info() const override {
     return {"cut", "Cut",
-            "Cuts the cloth along the stroke (mode 'stroke'): every edge under the stroke opens, and a stroke "
-            "from border to border separates the cloth into pieces. Mode 'vertex' is the 2006 paper's cut: "
-            "the picked vertex splits in two along the direction of the stroke.",
-            {ParamSpec::choice("mode", "stroke", {"stroke", "vertex"}, "Mode",
-                               "'stroke' cuts along the whole stroke; 'vertex' splits the vertex where the stroke "
-                               "begins, towards where it goes.")}};
+            "Cuts the cloth along the line the stroke draws (mode 'line'): through the triangles it crosses, "
+            "so the opening follows the line; a stroke from border to border separates the cloth into pieces, "
+            "and one that comes back to where it began cuts out what it encloses. Mode 'stroke' opens the mesh "
+            "edges nearest the stroke. Mode 'vertex' is the 2006 paper's cut: the picked vertex splits in two "
+            "along the direction of the stroke.",
+            {ParamSpec::choice("mode", "line", {"line", "stroke", "vertex"}, "Mode",
+                               "'line' cuts along the drawn line; 'stroke' along the mesh edges nearest it; "
+                               "'vertex' splits the vertex where the stroke begins, towards where it goes."),
+             ParamSpec::real("close", 0.03, 0.0, 0.5, "m", "Close within",
+                             "A line that ends this near where it began is closed, and what it encloses is cut "
+                             "out (0: never closed).")}};
   }
 
   Feedback begin(ToolContext& context, const ParamSet& params, const ToolEvent& event) override {
-    vertex_mode_ = params.get_string("mode") == "vertex";
+    const std::string mode = params.get_string("mode");
+    mode_ = mode == "vertex" ? Mode::Vertex : mode == "line" ? Mode::Line : Mode::Edges;
+    close_ = params.get_float("close");
     points_.clear();
+    marks_.clear();
     started_off_cloth_ = !event.hit.hit;
     first_position_ = event.position;
-    record(event);
+    record(context, event);
     return {};
   }
 
   Feedback update(ToolContext& context, const ToolEvent& event) override {
-    record(event);
+    record(context, event);
     return {};
   }
 
   void end(ToolContext& context, const ToolEvent& event) override {
-    record(event);
+    record(context, event);
     if (points_.empty()) return;  // the stroke never touched the cloth
     Garment& g = context.garment(garment_);
-    if (vertex_mode_) {
-      split_picked(g, event.position - first_position_);
-    } else {
-      const bool ended_off_cloth = !event.hit.hit;
-      cut_stroke(g, ended_off_cloth, event.position);
-    }
+    const bool ended_off_cloth = !event.hit.hit;
+    if (mode_ == Mode::Vertex) split_picked(g, event.position - first_position_);
+    else if (mode_ == Mode::Line) cut_line_drawn(g, ended_off_cloth, event.position);
+    else cut_stroke(g, ended_off_cloth, event.position);
     points_.clear();
+    marks_.clear();
   }
 
-  void cancel(ToolContext&) override { points_.clear(); }
+  void cancel(ToolContext&) override {
+    points_.clear();
+    marks_.clear();
+  }
 
  private:
-  void record(const ToolEvent& e) {
+  void record(const ToolContext& context, const ToolEvent& e) {
     if (!e.hit.hit) return;
-    if (points_.empty()) garment_ = e.hit.garment;
+    if (points_.empty()) {
+      garment_ = e.hit.garment;
+      topology_at_begin_ = context.garment(garment_).topology_version();
+    }
     if (e.hit.garment != garment_) return;
     if (points_.empty() || points_.back() != e.hit.nearest) points_.push_back(e.hit.nearest);
+    marks_.push_back({e.hit.face, e.hit.barycentric, e.hit.point});
+  }
+
+  // Where the line was drawn, on the cloth as it lies now: the cloth may have moved under the
+  // stroke, so each point is taken where its face has gone, while no edit has changed the faces.
+  std::vector<Vec3> drawn(const Garment& g) const {
+    std::vector<Vec3> out;
+    const bool same_faces = g.topology_version() == topology_at_begin_;
+    for (const Mark& m : marks_) {
+      Vec3 p = m.point;
+      if (same_faces) {
+        p = Vec3::Zero();
+        int k = 0;
+        for (Vertex v : CGAL::vertices_around_face(g.mesh().halfedge(m.face), g.mesh())) p += m.weights[k++] * g.position(v);
+      }
+      out.push_back(p);
+    }
+    return out;
+  }
+
+  void cut_line_drawn(Garment& g, bool ended_off_cloth, const Vec3& last_position) {
+    KnifeLine line;
+    line.start = marks_.front().face;
+    line.points = drawn(g);
+    if (started_off_cloth_) line.from = first_position_;
+    if (ended_off_cloth) line.to = last_position;
+    // Closed: it came back to where it began, on the cloth, after going well away from there.
+    double away = 0;
+    for (const Vec3& p : line.points) away = std::max(away, (p - line.points.front()).norm());
+    line.closed = !started_off_cloth_ && !ended_off_cloth && close_ > 0 && line.points.size() >= 4 &&
+                  (line.points.back() - line.points.front()).norm() <= close_ && away > 2 * close_;
+    // The stroke's return to its start is the closing piece of the line, which the knife draws.
+    if (line.closed)
+      while (line.points.size() > 3 && (line.points.back() - line.points.front()).norm() <= 0.5 * close_)
+        line.points.pop_back();
+    if (line.points.size() < 2 && !line.from && !line.to) return;  // a tap: nothing drawn to cut
+    cut_line(g, line);
   }
 
   // The border vertex nearest a point.
@@ -115,7 +168,16 @@ class CutTool : public Tool {
     else if (behind != ahead) split_vertex_between(g, v, ahead, behind);
   }
 
-  bool vertex_mode_ = false;
+  struct Mark {
+    Face face;
+    Vec3 weights;
+    Vec3 point;
+  };
+  enum class Mode { Line, Edges, Vertex };
+  Mode mode_ = Mode::Line;
+  double close_ = 0.03;
+  std::uint64_t topology_at_begin_ = 0;
+  std::vector<Mark> marks_;  // the line mode's points, as drawn
   bool started_off_cloth_ = false;
   Vec3 first_position_ = Vec3::Zero();
   std::size_t garment_ = 0;

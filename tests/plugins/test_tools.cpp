@@ -382,18 +382,118 @@ TEST(Tear, EdgesTearExactlyWhereTheyAreStretchedPastTheirThreshold) {
     EXPECT_LT((c - before.positions[weak.idx()]).norm(), 0.04) << "a face lost away from the weak vertex, at " << c.transpose();
 }
 
-TEST(Cut, AStrokeAcrossARectangleMakesTwoPiecesKeepingEveryFace) {
-  auto owner = flat_session(1.0, 1.0, 21, 21);
+TEST(Cut, AStrokeAcrossARectangleMakesTwoPiecesAlongItsLineKeepingAllTheCloth) {
+  auto owner = flat_session(1.0, 1.0, 21, 21);  // 5 cm spacing
   Session& s = *owner;
   s.set_simulating(false);
-  const auto faces = s.garment(0).mesh().number_of_faces();
+  auto area = [](const Garment& g) {
+    double a = 0;
+    for (Face f : g.mesh().faces()) a += g.rest_area(f);
+    return a;
+  };
+  const double before = area(s.garment(0));
   ParamSet p = s.params_for("cut");
-  // From off the cloth on the left to off the cloth on the right, just above the plane.
+  // From off the cloth on the left to off the cloth on the right, just above the plane, between
+  // two rows of vertices (0.50 and 0.55).
   run_and_check_undo(s, "cut", p, line(Vec3(-0.1, 0.52, 0.01), Vec3(1.1, 0.52, 0.01), 40));
   const Garment& g = s.garment(0);
   EXPECT_TRUE(g.is_valid());
   EXPECT_EQ(g.count_pieces(), 2u);
-  EXPECT_EQ(g.mesh().number_of_faces(), faces);
+  EXPECT_NEAR(area(g), before, 1e-9);
+  // The new border lies on the drawn line, not on a row of vertices.
+  int on_cut = 0;
+  for (const auto& loop : border_loops(g))
+    for (Vertex v : loop) {
+      const Vec3 q = g.position(v);
+      if (q.y() > 0.45 && q.y() < 0.6 && q.x() > 1e-9 && q.x() < 1 - 1e-9) {
+        EXPECT_NEAR(q.y(), 0.52, 0.25 * 0.05);
+        ++on_cut;
+      }
+    }
+  EXPECT_GE(on_cut, 2 * 20);
+}
+
+TEST(Cut, EdgesModeOfEarlierBuildsStillOpensTheEdgesNearestTheStroke) {
+  // Journals of earlier builds name the mode 'stroke': they replay as they did, along mesh edges.
+  auto owner = flat_session(1.0, 1.0, 21, 21);
+  Session& s = *owner;
+  s.set_simulating(false);
+  ParamSet p = s.params_for("cut", {{"mode", std::string("stroke")}});
+  const auto vertices = s.garment(0).mesh().number_of_vertices();
+  run_and_check_undo(s, "cut", p, line(Vec3(-0.1, 0.52, 0.01), Vec3(1.1, 0.52, 0.01), 40));
+  EXPECT_EQ(s.garment(0).count_pieces(), 2u);
+  // Along the row of vertices at y = 0.5: each of its 21 vertices doubled, none made on the line.
+  EXPECT_EQ(s.garment(0).mesh().number_of_vertices(), vertices + 21);
+}
+
+namespace {
+
+// A stroke around an ellipse in the plane just above the cloth, back to where it began.
+Stroke ellipse(const Vec3& centre, double rx, double ry, int n) {
+  Stroke out;
+  for (int i = 0; i <= n; ++i) {
+    ToolEvent e;
+    e.phase = i == 0 ? Phase::Begin : (i == n ? Phase::End : Phase::Move);
+    e.time = i / 60.0;
+    const double a = 2 * 3.14159265358979323846 * i / n;
+    e.position = centre + Vec3(rx * std::cos(a), ry * std::sin(a), 0.01);
+    out.push_back(e);
+  }
+  return out;
+}
+
+double distance_to_ellipse(const Vec3& p, const Vec3& centre, double rx, double ry) {
+  double d = 1e300;
+  for (int i = 0; i < 4000; ++i) {
+    const double a = 2 * 3.14159265358979323846 * i / 4000;
+    d = std::min(d, (Vec3(centre.x() + rx * std::cos(a), centre.y() + ry * std::sin(a), 0) - p).norm());
+  }
+  return d;
+}
+
+}  // namespace
+
+TEST(Cut, AClosedStrokeCutsOutAnOpeningAlongTheDrawnCurveNotTheEdges) {
+  // The paper's head opening drawn as an ellipse, the default mode: the opening's border follows
+  // the drawn curve within a quarter of the spacing (the edges would give a staircase, half a
+  // spacing off), and the inside comes away as a piece that can be deleted.
+  auto owner = flat_session(0.6, 0.6, 31, 31);  // 2 cm spacing
+  Session& s = *owner;
+  s.set_simulating(false);
+  const Vec3 centre(0.3, 0.3, 0);
+  run_and_check_undo(s, "cut", s.params_for("cut"), ellipse(centre, 0.12, 0.09, 90));
+  const Garment& g = s.garment(0);
+  ASSERT_TRUE(g.is_valid());
+  ASSERT_EQ(g.count_pieces(), 2u);
+  std::size_t on_opening = 0;
+  double worst = 0;
+  for (const auto& loop : border_loops(g)) {
+    bool outline = false;
+    for (Vertex v : loop) {
+      const Vec3 q = g.position(v);
+      outline = outline || q.x() < 1e-9 || q.y() < 1e-9 || q.x() > 0.6 - 1e-9 || q.y() > 0.6 - 1e-9;
+    }
+    if (outline) continue;
+    for (Vertex v : loop) worst = std::max(worst, distance_to_ellipse(g.position(v), centre, 0.12, 0.09));
+    on_opening += loop.size();
+  }
+  EXPECT_GT(on_opening, 60u) << "both sides of a 66 cm opening at 2 cm";
+  EXPECT_LT(worst, 0.25 * 0.02);
+
+  // A stroke that stops short of its start is an open line: a slit, not a piece.
+  auto owner2 = flat_session(0.6, 0.6, 31, 31);
+  owner2->set_simulating(false);
+  Stroke open = ellipse(centre, 0.12, 0.09, 90);
+  open.resize(60);
+  open.back().phase = Phase::End;
+  owner2->run("cut", owner2->params_for("cut"), open);
+  EXPECT_TRUE(owner2->garment(0).is_valid());
+  EXPECT_EQ(owner2->garment(0).count_pieces(), 1u);
+  // Closing switched off: the same closed stroke leaves one piece with a slit.
+  auto owner3 = flat_session(0.6, 0.6, 31, 31);
+  owner3->set_simulating(false);
+  owner3->run("cut", owner3->params_for("cut", {{"close", 0.0}}), ellipse(centre, 0.12, 0.09, 90));
+  EXPECT_EQ(owner3->garment(0).count_pieces(), 1u);
 }
 
 TEST(Cut, VertexModeSplitsThePickedVertexAsThePaperDoes) {

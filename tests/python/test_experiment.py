@@ -19,10 +19,11 @@ def tunic(tmp_path_factory):
 def test_it_is_made_by_the_papers_operations(tunic):
     settings, r = tunic
     tools = [j.tool for j in r.session.journal]
-    assert tools[:2] == ["cut", "cut"]
+    # The head opening: one closed stroke of the knife, along the drawn ellipse.
+    assert tools[0] == "cut" and r.session.journal[0].params["mode"] == "line"
     # The needle, and the hands that hold the hems apart as the panels fall and carry each seam's
     # first pair together.
-    sewn = tools[2:tools.index("paint")]
+    sewn = tools[1:tools.index("paint")]
     assert "sew" in sewn and set(sewn) <= {"sew", "pinch"}
     assert set(tools[tools.index("paint"):]) == {"paint"}
     assert r.garment.vertex_count >= 5000 and settings.spacing <= 0.015

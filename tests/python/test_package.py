@@ -54,7 +54,7 @@ def test_type_stubs_cover_the_api_and_every_tool():
         assert tool in methods
     paint_args = [a.arg for a in methods["paint"].args.kwonlyargs]
     assert "color" in paint_args and "radius" in paint_args
-    assert "Literal['stroke', 'vertex']" in ast.unparse(methods["cut"])
+    assert "Literal['line', 'stroke', 'vertex']" in ast.unparse(methods["cut"])
     garment = {f.name for f in classes["Garment"].body if isinstance(f, ast.FunctionDef)}
     assert {"positions", "faces", "uvs", "export"} <= garment
     assert os.path.exists(os.path.join(os.path.dirname(kiji.__file__), "py.typed"))

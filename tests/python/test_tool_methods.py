@@ -36,7 +36,7 @@ def test_introspection_lists_tools_and_their_parameters():
     radius = {p.name: p for p in infos["paint"].parameters}["radius"]
     assert radius.type == "float" and radius.unit == "m" and radius.min == 0.0005 and radius.max == 0.5
     mode = {p.name: p for p in infos["cut"].parameters}["mode"]
-    assert mode.type == "choice" and mode.choices == ["stroke", "vertex"] and mode.default == "stroke"
+    assert mode.type == "choice" and mode.choices == ["line", "stroke", "vertex"] and mode.default == "line"
     color = {p.name: p for p in infos["paint"].parameters}["color"]
     assert color.type == "color" and len(color.default) == 3
 

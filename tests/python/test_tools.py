@@ -81,14 +81,24 @@ def test_tear_split_mode_opens_the_cloth_and_loses_no_face():
     assert tissue.vertex_count > 441
 
 
-def test_cut_a_stroke_across_a_rectangle_makes_two_pieces_keeping_every_face():
-    s, g = flat_session(1.0, 1.0, 21, 21)
+def test_cut_a_stroke_across_a_rectangle_makes_two_pieces_along_its_line():
+    s, g = flat_session(1.0, 1.0, 21, 21)  # 5 cm apart
     s.simulating = False
-    faces = g.face_count
     run_and_check_undo(s, g, "cut", line((-0.1, 0.52, 0.01), (1.1, 0.52, 0.01), 40))
     assert g.is_valid()
     assert g.piece_count == 2
-    assert g.face_count == faces
+    # The opening lies on the drawn line (y = 0.52), between two rows of vertices, not on either.
+    inner = [v for loop in g.border_loops() for v in g.positions[np.array(loop)]
+             if 0.45 < v[1] < 0.6 and 1e-9 < v[0] < 1 - 1e-9]
+    assert len(inner) >= 40 and all(abs(v[1] - 0.52) < 0.25 * 0.05 for v in inner)
+
+
+def test_cut_edges_mode_of_earlier_builds_keeps_every_face():
+    s, g = flat_session(1.0, 1.0, 21, 21)
+    s.simulating = False
+    faces = g.face_count
+    run_and_check_undo(s, g, "cut", line((-0.1, 0.52, 0.01), (1.1, 0.52, 0.01), 40), mode="stroke")
+    assert g.piece_count == 2 and g.face_count == faces
 
 
 def test_cut_vertex_mode_splits_the_picked_vertex_as_the_paper_does():

@@ -111,32 +111,9 @@ class Walker {
         c.point = onto;
         return true;
       }
-      int exit = -1;
-      double exit_s = std::numeric_limits<double>::infinity();
-      for (int k = 0; k < 3; ++k) {
-        if (!(lt[k] < 0) || k == c.entered_opposite) continue;
-        const double s = std::max(0.0, lq[k] / (lq[k] - lt[k]));
-        if (s < exit_s) exit_s = s, exit = k;
-      }
-      if (exit < 0) return true;  // only back the way it came: the surface folds back here
-      const Vec3 lx = lq + exit_s * (lt - lq);
-      Index a = f[(exit + 1) % 3], b = f[(exit + 2) % 3];
-      const double wa = std::max(0.0, lx[(exit + 1) % 3]), wb = std::max(0.0, lx[(exit + 2) % 3]);
-      double t = wa + wb > 0 ? wb / (wa + wb) : 0.5;
-      if (a > b) std::swap(a, b), t = 1.0 - t;
-      Crossing x;
-      x.a = a;
-      x.b = b;
-      x.t = t;
-      x.point = (1 - t) * pos(a) + t * pos(b);
-      x.from = c.face;
-      x.to = adj_.other(edge_key(a, b), c.face);
-      out.push_back(x);
-      if (x.to < 0) return false;
-      const auto& g = s_.faces[x.to];
-      int opposite = 0;
-      while (g[opposite] == a || g[opposite] == b) ++opposite;
-      c = Cursor{x.to, x.point, opposite};
+      const Leave left = leave(c, lq, lt, out);
+      if (left == Leave::Stopped) return true;  // only back the way it came: the surface folds back here
+      if (left == Leave::Border) return false;
       // Circling a vertex or a crease without getting nearer: back to the nearest point reached.
       const double d = (c.point - target).norm();
       if (d < best_distance - 1e-12) {
@@ -155,7 +132,66 @@ class Walker {
     return true;
   }
 
+  // Goes straight on over the surface from `c` along `direction` (turned into each face it enters),
+  // appending the edges crossed, until the border (returns false), or a fold where the surface
+  // turns back or a face is collapsed (returns true). This carries a stroke that left the cloth to
+  // the border, where walking towards the pointer would stop on the first slope that turns away
+  // from it (cloth draped over a body).
+  bool run(Cursor& c, Vec3 direction, std::vector<Crossing>& out) {
+    for (std::size_t guard = 0; guard < 4 * s_.faces.size() + 16; ++guard) {
+      const auto& f = s_.faces[c.face];
+      const Vec3 p[3] = {pos(f[0]), pos(f[1]), pos(f[2])};
+      Vec3 n = (p[1] - p[0]).cross(p[2] - p[0]);
+      if (!(n.norm() > 0)) return true;
+      n.normalize();
+      direction -= n * n.dot(direction);
+      if (!(direction.norm() > 1e-12)) return true;
+      direction.normalize();
+      const double across = (p[1] - p[0]).norm() + (p[2] - p[1]).norm() + (p[0] - p[2]).norm();
+      const Vec3 lt = barycentric(Vec3(c.point + 2 * across * direction), p[0], p[1], p[2]);
+      const Vec3 lq = barycentric(c.point, p[0], p[1], p[2]).cwiseMax(0.0);
+      const Leave left = leave(c, lq, lt, out);
+      if (left == Leave::Stopped) return true;
+      if (left == Leave::Border) return false;
+    }
+    return true;
+  }
+
  private:
+  enum class Leave { Stopped, Border, Crossed };
+  // Leaves c's face on the segment from barycentric lq towards lt (not by the edge it came in by):
+  // appends the crossing and moves c into the next face.
+  Leave leave(Cursor& c, const Vec3& lq, const Vec3& lt, std::vector<Crossing>& out) {
+    const auto& f = s_.faces[c.face];
+    int exit = -1;
+    double exit_s = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 3; ++k) {
+      if (!(lt[k] < 0) || k == c.entered_opposite) continue;
+      const double s = std::max(0.0, lq[k] / (lq[k] - lt[k]));
+      if (s < exit_s) exit_s = s, exit = k;
+    }
+    if (exit < 0) return Leave::Stopped;
+    const Vec3 lx = lq + exit_s * (lt - lq);
+    Index a = f[(exit + 1) % 3], b = f[(exit + 2) % 3];
+    const double wa = std::max(0.0, lx[(exit + 1) % 3]), wb = std::max(0.0, lx[(exit + 2) % 3]);
+    double t = wa + wb > 0 ? wb / (wa + wb) : 0.5;
+    if (a > b) std::swap(a, b), t = 1.0 - t;
+    Crossing x;
+    x.a = a;
+    x.b = b;
+    x.t = t;
+    x.point = (1 - t) * pos(a) + t * pos(b);
+    x.from = c.face;
+    x.to = adj_.other(edge_key(a, b), c.face);
+    out.push_back(x);
+    if (x.to < 0) return Leave::Border;
+    const auto& g = s_.faces[x.to];
+    int opposite = 0;
+    while (g[opposite] == a || g[opposite] == b) ++opposite;
+    c = Cursor{x.to, x.point, opposite};
+    return Leave::Crossed;
+  }
+
   const Vec3& pos(Index v) const { return s_.vertices[v].position; }
   const Soup& s_;
   const Adjacency& adj_;
@@ -266,12 +302,16 @@ class Knife {
       const Vec3 l = barycentric(c.point, pos(f[0]), pos(f[1]), pos(f[2])).cwiseMax(0.0);
       c.point = (l[0] * pos(f[0]) + l[1] * pos(f[1]) + l[2] * pos(f[2])) / l.sum();
     }
-    const Cursor first = c;
     // From the border: the line carried back from its start towards where the stroke came from.
     if (line_.from) {
       Cursor back = c;
       std::vector<Crossing> before;
-      walker.walk(back, *line_.from, before);
+      if (walker.walk(back, *line_.from, before)) {
+        // Stopped on the cloth (a slope that turns away from the pointer): straight on the way it went.
+        std::vector<Vec3> went{c.point};
+        for (const Crossing& x : before) went.push_back(x.point);
+        walker.run(back, heading(went, back.point, *line_.from - back.point), before);
+      }
       for (auto it = before.rbegin(); it != before.rend(); ++it) {
         Crossing x = *it;
         std::swap(x.from, x.to);
@@ -282,7 +322,10 @@ class Knife {
     followed_.push_back(c.point);
     bool on_cloth = true;
     for (std::size_t i = 1; i < line_.points.size() && on_cloth; ++i) on_cloth = step(walker, c, line_.points[i]);
-    if (on_cloth && line_.to) on_cloth = step(walker, c, *line_.to);
+    if (on_cloth && line_.to) {
+      on_cloth = step(walker, c, *line_.to);
+      if (on_cloth) on_cloth = run_on(walker, c, heading(followed_, c.point, *line_.to - c.point));
+    }
     closed_ = line_.closed && on_cloth && !line_.from && !line_.to;
     if (closed_ && crossings_.size() >= 2) {
       // Back to where the line first crossed an edge; a crossing of that same point again is that one.
@@ -302,6 +345,25 @@ class Knife {
       closed_ = false;
     }
     if (!closed_ && !followed_.empty() && c.face >= 0 && on_cloth) followed_.push_back(c.point);
+  }
+
+  // The way a line that went through `went` (in order) was heading at `at`: from the last point
+  // short of it; `otherwise` where it has not moved.
+  static Vec3 heading(const std::vector<Vec3>& went, const Vec3& at, const Vec3& otherwise) {
+    const double tiny = 1e-9 * (1.0 + at.norm());
+    for (auto it = went.rbegin(); it != went.rend(); ++it)
+      if ((at - *it).norm() > tiny) return at - *it;
+    return otherwise;
+  }
+
+  bool run_on(Walker& walker, Cursor& c, const Vec3& direction) {
+    std::vector<Crossing> part;
+    const bool on = walker.run(c, direction, part);
+    for (const Crossing& x : part) {
+      crossings_.push_back(x);
+      followed_.push_back(x.point);
+    }
+    return on;
   }
 
   bool step(Walker& walker, Cursor& c, const Vec3& target) {
@@ -639,7 +701,8 @@ class Knife {
         const bool r2 = std::count(two.begin(), two.end(), r) && r != p && r != q;
         const bool s2 = std::count(two.begin(), two.end(), s) && s != p && s != q;
         if ((r1 && s2) || (r2 && s1))
-          throw InputError("cut: the line crosses itself inside one triangle; draw it without crossing itself");
+          throw InputError("cut: the line crosses itself inside one triangle (as it does where it runs over folds "
+                           "from one layer to another); draw it on one layer, or in shorter strokes");
       }
       auto a = split_and_triangulate(one, chords, flat);
       auto b = split_and_triangulate(two, chords, flat);

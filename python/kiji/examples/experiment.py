@@ -290,8 +290,9 @@ def run_experiment(settings: Settings = Settings()) -> Result:
     _say(st, f"  1. draped: {st.drape_seconds:g} s on the body")
     stage_done("drape")
 
-    # 2. Cut the head opening: an ellipse around the crown of the pattern, in two strokes (each from
-    #    one end of the other's cut), and take away the cloth over the head.
+    # 2. Cut the head opening: one stroke around an ellipse on the crown of the pattern, back to where
+    #    it began (the knife cuts out what a closed line encloses), and take away the cloth over the
+    #    head.
     s.simulating = False  # nothing falls while the scissors work
     centre_u, centre_v = st.width / 2, st.length / 2
     scale = g.pattern_scale
@@ -303,8 +304,7 @@ def run_experiment(settings: Settings = Settings()) -> Result:
         return points[~np.isnan(points).any(axis=1)]
 
     crown = pattern.id[(nx // 2, ny // 2)]
-    s.cut(around_head(0, np.pi))
-    s.cut(around_head(np.pi, 2 * np.pi))
+    s.cut(around_head(0, 2 * np.pi))
     if g.piece_count != 2:
         raise kiji.Error(f"experiment: the cut around the head made {g.piece_count} pieces, not 2")
     rows = {int(v): i for i, v in enumerate(g.vertex_ids)}

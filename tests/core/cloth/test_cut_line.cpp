@@ -148,6 +148,27 @@ TEST(CutLine, AStrokeFromBorderToBorderSeparatesThePiecesAlongTheLine) {
   EXPECT_GT(smallest_angle(g), 15.0);
 }
 
+TEST(CutLine, AStrokeLeavingClothDrapedOverAnArchCutsOnDownToTheBorder) {
+  // Cloth lying over an arch (half a cylinder), the stroke drawn across its top and off to each side
+  // at the top's height, as a user draws across draped cloth: the slopes turn away from the pointer,
+  // and the line goes on down them, straight, to the border on both sides.
+  Garment g = make_rectangle_spaced(0.6, 0.6, 0.02);
+  const double r = 0.6 / kPi;
+  for (Vertex v : g.mesh().vertices()) {
+    const Vec3 p = g.position(v);
+    const double a = p.x() / r - kPi / 2;  // -90 to 90 degrees from the top
+    g.set_position(v, Vec3(r * std::sin(a), p.y(), r * std::cos(a)));
+  }
+  KnifeLine line;
+  line.points = {Vec3(-0.03, 0.31, r), Vec3(0.0, 0.3, r), Vec3(0.03, 0.29, r)};
+  line.start = face_at(g, line.points.front());
+  line.from = Vec3(-0.5, 0.33, r);
+  line.to = Vec3(0.5, 0.27, r);
+  cut_line(g, line);
+  EXPECT_TRUE(g.is_valid());
+  EXPECT_EQ(g.count_pieces(), 2u) << "the line stopped on a slope";
+}
+
 TEST(CutLine, ALineThatRunsIntoTheClothEndsInASlit) {
   Garment g = make_rectangle_spaced(1.0, 1.0, 0.05);
   KnifeLine line;

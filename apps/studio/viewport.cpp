@@ -16,6 +16,15 @@ namespace kiji::studio {
 
 namespace {
 
+// Labels over the view (sizes, peers' names) are bold and smoothed, to read over cloth and body.
+QFontMetrics bold_text(QPainter& painter) {
+  painter.setRenderHint(QPainter::Antialiasing);
+  QFont font = painter.font();
+  font.setBold(true);
+  painter.setFont(font);
+  return QFontMetrics(font);
+}
+
 // How far in front of the cloth the mouse's pointer sits: within every tool's touch distance (the
 // paint brush's is 5 mm), and clear of the surface so that the pick ray from it meets the cloth.
 constexpr double kAboveCloth = 0.002;
@@ -141,11 +150,7 @@ void Viewport::paintGL() {
   if (peers) draw_peer_names(*peers);
   if (!labels.empty()) {
     QPainter painter(this);
-    painter.setRenderHint(QPainter::Antialiasing);
-    QFont font = painter.font();
-    font.setBold(true);
-    painter.setFont(font);
-    const QFontMetrics metrics(font);
+    const QFontMetrics metrics = bold_text(painter);
     for (const auto& [at, text] : labels) {
       const QPointF p = project(at);
       const QRectF box(p + QPointF(12, -metrics.height() - 8), QSizeF(metrics.horizontalAdvance(text) + 10, metrics.height() + 4));
@@ -552,11 +557,7 @@ void Viewport::frame_all() {
 
 void Viewport::draw_peer_names(const PeerView& peers) {
   QPainter painter(this);
-  painter.setRenderHint(QPainter::Antialiasing);
-  QFont font = painter.font();
-  font.setBold(true);
-  painter.setFont(font);
-  const QFontMetrics metrics(font);
+  const QFontMetrics metrics = bold_text(painter);
   for (const PeerRow& p : peers.peers) {
     if (p.self || !p.present || !p.has_presence || p.presence.pointer == Vec3::Zero()) continue;
     // A label beside the pen's tip, in the peer's colour: who is pointing there.

@@ -3,6 +3,9 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+#include <vector>
+
 using namespace kiji;
 
 namespace {
@@ -66,4 +69,39 @@ TEST(Garment, MaterialOutOfRangeIsRefusedAndKeepsTheOldOne) {
   EXPECT_EQ(g.material().density, Material{}.density);
   EXPECT_THROW(Material::preset("velvet"), InputError);
   EXPECT_EQ(Material::preset("rubber").name, "rubber");
+}
+
+TEST(Garment, EveryMaterialFieldOutsideItsRangeIsRefusedByName) {
+  // Each field out of range, below and above, with a denormal where a field must be positive: a
+  // stiffness of 7.5e-315 passed a "positive" check and made the solver's compliance infinite.
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  struct Case {
+    const char* field;
+    double Material::*member;
+    std::vector<double> bad;
+  };
+  const std::vector<Case> cases = {
+      {"density", &Material::density, {0, 7.5e-315, 1e-4, 11, nan}},
+      {"stretch_stiffness", &Material::stretch_stiffness, {0, 7.5e-315, 0.5, 2e7, nan}},
+      {"bending_stiffness", &Material::bending_stiffness, {-1e-6, 7.5e-315, 2, nan}},
+      {"damping", &Material::damping, {-0.1, 1001, nan}},
+      {"friction", &Material::friction, {-0.1, 11, nan}},
+      {"thickness", &Material::thickness, {0, 7.5e-315, 0.1, nan}},
+      {"tear_ratio", &Material::tear_ratio, {1.0, 1001, nan}},
+  };
+  for (const Case& c : cases)
+    for (double value : c.bad) {
+      Material m;
+      m.*c.member = value;
+      try {
+        m.validate();
+        ADD_FAILURE() << c.field << " = " << value << " was accepted";
+      } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find(c.field), std::string::npos) << e.what();
+      }
+    }
+  for (const std::string& name : Material::preset_names()) EXPECT_NO_THROW(Material::preset(name).validate()) << name;
+  Material still;
+  still.bending_stiffness = 0;  // no bending at all is a choice
+  EXPECT_NO_THROW(still.validate());
 }

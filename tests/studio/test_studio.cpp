@@ -659,6 +659,64 @@ class StudioTest : public QObject {
     QVERIFY(wait_until([&] { return border_loop_count() == 1; }));
   }
 
+  void a_closed_cut_drawn_with_real_x_events_cuts_out_an_opening_along_the_line() {
+    if (QString(KIJI_XDOTOOL).isEmpty()) QSKIP("xdotool was not found when this test was built (scripts/setup.sh installs it)");
+    const double spacing = 0.05;
+    hanging_square(spacing);
+    window_->tool_panel().choose("cut");
+    QTest::qWait(100);
+    const Box3 b = with_session([](Session& s) { return s.garment(0).bounds(); });
+    const Vec3 centre = b.center();
+    const double rx = 0.3, ry = 0.2;
+    std::vector<Vec3> ellipse;
+    for (int i = 0; i <= 48; ++i) {
+      const double a = 2 * 3.14159265358979323846 * i / 48;
+      ellipse.emplace_back(centre.x() + rx * std::cos(a), centre.y() + ry * std::sin(a), 0);
+    }
+    // The hand goes round and holds the button at the start: the preview says the cut will close.
+    QStringList a = QStringList{"mousemove"} + screen(ellipse.front());
+    a << "sleep" << "0.05" << "mousedown" << "1" << "sleep" << "0.05";
+    for (const Vec3& p : ellipse) a << (QStringList{"mousemove"} + screen(p)) << "sleep" << "0.02";
+    QVERIFY(xdotool(a));
+    QTest::qWait(150);
+    const QString hint = window_->findChild<QLabel*>("hint")->text();
+    QVERIFY2(hint.contains("the cut closes here"), qPrintable(hint));
+    window_->grab_window().save(tmp_ + "/cut_closing.png");  // to look at
+    QCOMPARE(strokes(), std::size_t(0));
+    QVERIFY(xdotool({"mouseup", "1", "sleep", "0.05"}));
+    QVERIFY(wait_until([&] { return strokes() == 1; }));
+    QCOMPARE(pieces(), std::size_t(2));
+    // The opening's border (both sides) follows the drawn ellipse within a quarter of the spacing.
+    const auto worst = with_session([&](Session& s) {
+      const Garment& g = s.garment(0);
+      double far = 0;
+      std::size_t near_centre = 0;
+      for (const auto& loop : border_loops(g)) {
+        Box3 box;
+        for (Vertex v : loop) box.extend(g.position(v));
+        if (box.sizes().x() > 0.7) continue;  // the square's outline
+        for (Vertex v : loop) {
+          double d = 1e300;
+          for (int i = 0; i < 2000; ++i) {
+            const double t = 2 * 3.14159265358979323846 * i / 2000;
+            d = std::min(d, (g.position(v) - Vec3(centre.x() + rx * std::cos(t), centre.y() + ry * std::sin(t), g.position(v).z())).norm());
+          }
+          far = std::max(far, d);
+          ++near_centre;
+        }
+      }
+      return near_centre > 20 ? far : 1e300;
+    });
+    QVERIFY2(worst < 0.25 * spacing, qPrintable(QString("the opening is %1 m off the drawn line").arg(worst)));
+    // The piece cut out is taken away as a hand would: Ctrl + click on it, then Delete.
+    QVERIFY(xdotool(QStringList{"mousemove"} + screen(centre) +
+                    QStringList{"keydown", "ctrl", "click", "1", "keyup", "ctrl", "sleep", "0.05", "key", "Delete"}));
+    QVERIFY(wait_until([&] { return pieces() == 1; }));
+    QCOMPARE(border_loop_count(), std::size_t(2));  // the outline and the opening
+    QTest::qWait(100);
+    window_->grab_window().save(tmp_ + "/cut_out.png");  // to look at
+  }
+
   // --- The small defects of issue 52, each as a user met it ---
 
   void the_right_button_follows_the_chosen_tool_until_one_is_put_on_it() {

@@ -76,32 +76,4 @@ void lay_over_body(Session& session) {
   }
 }
 
-void drape_session(Session& session, double seconds, const std::function<bool(double)>& progress) {
-  DrapeOptions options;
-  options.seconds = seconds;
-  options.validate();
-  const SolverParams own = session.solver_params();
-  SolverParams p = options.solver;
-  p.model = own.model;
-  // Paused, the cloth would not move: it runs for the drape and is paused again after it.
-  const bool paused = !session.simulating();
-  session.set_solver_params(p);
-  if (paused) session.set_simulating(true);
-  auto restore = [&] {
-    session.set_solver_params(own);
-    if (paused) session.set_simulating(false);
-  };
-  try {
-    const auto steps = static_cast<long>(std::llround(seconds * session.frame_rate()));
-    for (long i = 0; i < steps; ++i) {
-      session.step();
-      if (progress && !progress(double(i + 1) / double(steps))) break;
-    }
-  } catch (...) {
-    restore();
-    throw;
-  }
-  restore();
-}
-
 }  // namespace kiji::studio

@@ -40,9 +40,4 @@ bool has_strokes(const Session& session);
 // Lays every garment flat over the session's body (a garment not yet touched, when a body comes).
 void lay_over_body(Session& session);
 
-// Simulates `seconds` with the drape's solver settings (more substeps), then puts the session's own
-// settings back; a paused session runs for the drape and is paused again. `progress(fraction)` may
-// stop it early by returning false.
-void drape_session(Session& session, double seconds, const std::function<bool(double)>& progress = {});
-
 }  // namespace kiji::studio

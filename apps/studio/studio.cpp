@@ -501,10 +501,11 @@ void Studio::drape(double seconds) {
     } done{draping_};
     const double start = s.time();
     long step = 0;
-    drape_session(s, seconds, [&](double) {
+    // Where the garments are, as the user placed them (each new one is laid over the body).
+    s.drape(seconds, [&](double) {
       if (++step % 6 == 0) loop->publish_now();
       return !cancel_drape_.load() && !loop->stop_requested();
-    });
+    }, /*place=*/false);
     const double simulated = s.time() - start;
     const bool paused = !s.simulating();
     QMetaObject::invokeMethod(this, [this, simulated, paused] {

@@ -406,30 +406,15 @@ void bind_session(py::module_& m) {
         "and may return False to stop; Ctrl-C raises KeyboardInterrupt (the steps done are kept).");
   s.def("drape", [](Session& self, double seconds, bool place, double clearance, const py::object& progress) {
     SessionGuard lock(self);
-    if (!self.body()) throw InputError("drape: the session has no body: set session.body first");
-    if (place)
-      for (std::size_t i = 0; i < self.garment_count(); ++i) {
-        Garment g = self.garment(i);
-        place_over_body(g, *self.body(), clearance);
-        self.set_garment(i, g);
-      }
-    // The drape's substeps (as `kiji drape` and kiji::drape use), then back to the interactive ones.
-    const SolverParams interactive = self.solver_params();
-    SolverParams draping = interactive;
-    draping.substeps = std::max(interactive.substeps, DrapeOptions{}.solver.substeps);
-    self.set_solver_params(draping);
-    try {
-      simulate(self, seconds, progress);
-    } catch (...) {
-      self.set_solver_params(interactive);
-      throw;
-    }
-    self.set_solver_params(interactive);
+    const ProgressHook hook(progress);
+    py::gil_scoped_release nogil;
+    self.drape(seconds, [&](double fraction) { return hook(fraction); }, place, clearance);
   }, py::arg("seconds") = 3.0, py::kw_only(), py::arg("place") = true, py::arg("clearance") = 0.02,
      py::arg("progress") = py::none(),
      "Lays every garment over the body (place=True) and lets it fall and settle for `seconds`, with the\n"
-     "drape's solver settings (as `kiji drape`: 40 substeps a step, where interactive work uses 10),\n"
-     "then goes back to the session's own. Each change is journaled.");
+     "session's solver settings at the drape's substeps (as `kiji drape`: 40 a step, where interactive\n"
+     "work uses 10); a paused session runs for it. Then the session's own settings and pause come back.\n"
+     "Each change is journaled.");
   s.def("measure", [](Session& self, std::size_t i) {
     SessionGuard lock(self);
     return self.solver(i).measure(self.garment(i));

@@ -56,6 +56,39 @@ def test_the_drape_settings_are_what_keeps_the_cloth_unstretched():
     assert draped.measure().max_strain < fallen.measure().max_strain
 
 
+def test_a_paused_session_drapes_too_and_is_paused_again():
+    # As Kiji Studio's Simulation > Drape: the user paused to arrange things, then asked for a drape.
+    body = kiji.Body.default()
+    alone = _cloth()
+    kiji.place_over_body(alone, body)
+    kiji.drape(alone, body, seconds=0.5)
+    s = kiji.Session(body=body)
+    g = s.add_garment(_cloth())
+    s.simulating = False
+    s.drape(seconds=0.5)
+    assert np.array_equal(g.positions, alone.positions), "the same drape as a running session's"
+    assert not s.simulating
+
+
+def test_the_drape_keeps_the_users_own_settings_but_the_substeps():
+    # A user's settings are the drape's (here: no gravity, so nothing falls), with the drape's
+    # substeps; all of them come back after it.
+    body = kiji.Body.default()
+    s = kiji.Session(body=body)
+    g = s.add_garment(_cloth())
+    p = s.solver_params
+    p.gravity = (0, 0, 0)
+    p.substeps = 12
+    s.solver_params = p
+    s.drape(seconds=0.5)
+    placed = _cloth()
+    kiji.place_over_body(placed, body)
+    assert np.abs(g.positions - placed.positions).max() < 1e-3, "without gravity the cloth stays where it was laid"
+    assert s.solver_params.substeps == 12 and np.array_equal(s.solver_params.gravity, [0, 0, 0])
+    substeps = [op.solver_params.substeps for op in s.operations if op.kind == "set_solver_params"]
+    assert 40 in substeps, "it ran at the drape's substeps"
+
+
 def test_a_drape_without_a_body_changes_nothing():
     s = kiji.Session()
     g = s.add_garment(_cloth())

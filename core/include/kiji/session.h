@@ -73,6 +73,15 @@ class Session {
   // Whether time steps the cloth (false: tools still edit, nothing falls; the clock runs).
   bool simulating() const { return simulating_; }
   void set_simulating(bool simulating);
+  // Lets the garments fall and settle on the body for `seconds` (0 to 3600): each laid over the
+  // body first (place_over_body, when `place`), then stepped with the session's own solver settings
+  // at the drape's substeps (at least DrapeOptions's), a paused session running for it; the
+  // settings and the pause come back after. Every change is a journaled operation. For one garment
+  // and default settings it gives what kiji::drape gives, bit for bit. `progress` (after each step,
+  // with the fraction done) may return false to stop early. Throws InputError when `place` and
+  // there is no body (without one and not placed, the garments settle under their pins).
+  void drape(double seconds, const std::function<bool(double)>& progress = {}, bool place = true,
+             double clearance = 0.02);
 
   // --- picking ---
   // The cloth under a pointer: the nearest surface point within pick_radius() of `position`, or

@@ -1,12 +1,14 @@
 #include "kiji/session.h"
 
 #include "base/overloaded.h"
+#include "kiji/drape.h"
 #include "kiji/error.h"
 #include "kiji/pick.h"
 
 #include "base/byte_io.h"
 #include "session/stroke_context.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <vector>
@@ -133,6 +135,39 @@ void Session::simulate_step() {
     for (std::size_t i = 0; i < garments_.size(); ++i) solvers_[i]->step(garments_[i], dt);
   time_ += dt;
   ++steps_;
+}
+
+void Session::drape(double seconds, const std::function<bool(double)>& progress, bool place, double clearance) {
+  if (place && !body_) throw InputError("drape: the session has no body to lay the garments over: set one first");
+  if (!std::isfinite(seconds) || seconds < 0 || seconds > max_advance_seconds)
+    throw InputError("drape: seconds must be from 0 to 3600");
+  if (place)
+    for (std::size_t i = 0; i < garments_.size(); ++i) {
+      Garment g = garments_[i];
+      place_over_body(g, *body_, clearance);
+      set_garment(i, g);
+    }
+  const SolverParams own = solver_params_;
+  SolverParams draping = own;
+  draping.substeps = std::max(own.substeps, DrapeOptions{}.solver.substeps);
+  const bool paused = !simulating_;
+  set_solver_params(draping);
+  if (paused) set_simulating(true);
+  auto restore = [&] {
+    set_solver_params(own);
+    if (paused) set_simulating(false);
+  };
+  try {
+    const auto steps = static_cast<std::size_t>(std::llround(seconds * frame_rate_));
+    for (std::size_t i = 0; i < steps; ++i) {
+      step();
+      if (progress && !progress(double(i + 1) / double(steps))) break;
+    }
+  } catch (...) {
+    restore();
+    throw;
+  }
+  restore();
 }
 
 void Session::advance_to(double t) {

@@ -358,17 +358,16 @@ class Knife {
 
   bool run_on(Walker& walker, Cursor& c, const Vec3& direction) {
     std::vector<Crossing> part;
-    const bool on = walker.run(c, direction, part);
-    for (const Crossing& x : part) {
-      crossings_.push_back(x);
-      followed_.push_back(x.point);
-    }
-    return on;
+    return follow(walker.run(c, direction, part), part);
   }
 
   bool step(Walker& walker, Cursor& c, const Vec3& target) {
     std::vector<Crossing> part;
-    const bool on = walker.walk(c, target, part);
+    return follow(walker.walk(c, target, part), part);
+  }
+
+  // Takes a walk's crossings into the line; returns whether the walk is still on the cloth.
+  bool follow(bool on, const std::vector<Crossing>& part) {
     for (const Crossing& x : part) {
       crossings_.push_back(x);
       followed_.push_back(x.point);

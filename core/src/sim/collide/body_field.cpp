@@ -99,16 +99,19 @@ BodyField::BodyField(const Body& body, double reach) : vertices_(body.vertices()
       hi[a] = std::min(grid_[a] - 1, static_cast<int>(floor_of((boxes_[t].max()[a] + band_ - origin_[a]) / block_side)));
     }
   };
-  auto block_index = [&](int x, int y, int z) { return (std::size_t(z) * grid_[1] + y) * grid_[0] + x; };
+  // Calls visit(block, t) for every block within the band of every triangle t that is not degenerate.
+  auto each_block_near = [&](auto visit) {
+    for (std::size_t t = 0; t < T.size(); ++t) {
+      if (degenerate[t]) continue;
+      int lo[3], hi[3];
+      block_range(t, lo, hi);
+      for (int z = lo[2]; z <= hi[2]; ++z)
+        for (int y = lo[1]; y <= hi[1]; ++y)
+          for (int x = lo[0]; x <= hi[0]; ++x) visit((std::size_t(z) * grid_[1] + y) * grid_[0] + x, static_cast<int>(t));
+    }
+  };
   std::vector<int> tri_count(nblocks + 1, 0);
-  for (std::size_t t = 0; t < T.size(); ++t) {
-    if (degenerate[t]) continue;
-    int lo[3], hi[3];
-    block_range(t, lo, hi);
-    for (int z = lo[2]; z <= hi[2]; ++z)
-      for (int y = lo[1]; y <= hi[1]; ++y)
-        for (int x = lo[0]; x <= hi[0]; ++x) ++tri_count[block_index(x, y, z) + 1];
-  }
+  each_block_near([&](std::size_t b, int) { ++tri_count[b + 1]; });
   slot_.assign(nblocks, -1);
   for (std::size_t b = 0; b < nblocks; ++b)
     if (tri_count[b + 1] > 0) {
@@ -119,14 +122,7 @@ BodyField::BodyField(const Body& body, double reach) : vertices_(body.vertices()
   for (std::size_t k = 0; k < near_.size(); ++k) near_begin_[k + 1] = near_begin_[k] + tri_count[near_[k] + 1];
   near_tris_.resize(near_begin_.back());
   std::vector<int> fill(near_begin_.begin(), near_begin_.end() - 1);
-  for (std::size_t t = 0; t < T.size(); ++t) {
-    if (degenerate[t]) continue;
-    int lo[3], hi[3];
-    block_range(t, lo, hi);
-    for (int z = lo[2]; z <= hi[2]; ++z)
-      for (int y = lo[1]; y <= hi[1]; ++y)
-        for (int x = lo[0]; x <= hi[0]; ++x) near_tris_[fill[slot_[block_index(x, y, z)]]++] = static_cast<int>(t);
-  }
+  each_block_near([&](std::size_t b, int t) { near_tris_[fill[slot_[b]]++] = t; });
   blocks_ = std::make_unique<std::atomic<const Block*>[]>(near_.size());
   claimed_ = std::make_unique<std::atomic<bool>[]>(near_.size());
   for (std::size_t k = 0; k < near_.size(); ++k) {

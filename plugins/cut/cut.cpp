@@ -1,7 +1,6 @@
-// cut: the knife. Along the line the stroke draws on the cloth (through the triangles it crosses),
-// along the mesh edges nearest the stroke (the mode earlier builds had alone, which their journals
-// name),
-// or, as in the 2006 paper, at one picked vertex that is split in two with its faces shared
+// cut: the knife. Along the line the stroke draws on the cloth (through the triangles it crosses);
+// along the mesh edges nearest the stroke (all that earlier builds did, and what their journals
+// name); or, as in the 2006 paper, at one picked vertex that is split in two with its faces shared
 // between the halves.
 #include <kiji/error.h>
 #include <kiji/tool.h>

@@ -13,8 +13,9 @@
 
 namespace kiji::fuzz {
 
-// An operation's step is taken at most this far ahead of the clock: stepping there is the same code
-// whatever the distance, and a fuzzed step count would spend the run's time on it.
+// An operation's step, and a tool event's time, are taken at most this far ahead of the clock:
+// stepping there is the same code whatever the distance, and a fuzzed step count or an event an
+// hour ahead (which a session accepts) would spend the run's time on it.
 constexpr std::uint64_t kMaxStepsAhead = 4;
 
 // Performs the operations in order on a session holding a small garment, as a replay or a peer
@@ -26,6 +27,8 @@ inline void perform_and_check(const std::vector<Operation>& operations) {
   session.add_garment(make_rectangle(0.2, 0.2, 4, 4));
   for (Operation op : operations) {
     op.step = std::min(op.step, session.steps() + kMaxStepsAhead);
+    if (auto* input = std::get_if<op::ToolInput>(&op.data))
+      input->event.time = std::min(input->event.time, session.time() + kMaxStepsAhead / session.frame_rate());
     try {
       session.perform(op);
     } catch (const InputError&) {

@@ -1,6 +1,7 @@
 #include "viewport.h"
 
 #include "studio.h"
+#include "kiji/topology.h"
 
 #include <QKeyEvent>
 #include <QMouseEvent>
@@ -305,10 +306,7 @@ void Viewport::build_overlay(const SceneFrame& frame, Overlay& overlay, std::vec
     if (cut) {
       const std::uint32_t button = buttons_ == kButtonSecondary ? kButtonSecondary : kButtonPrimary;
       const ParamSet& params = studio_.tool_params(button);
-      const double close = params.get_string("mode") == "line" ? params.get_float("close") : 0.0;
-      double away = 0;
-      for (const Vec3& p : trail_) away = std::max(away, (p - trail_.front()).norm());
-      if (close > 0 && trail_.size() >= 4 && (trail_.back() - trail_.front()).norm() <= close && away > 2 * close) {
+      if (params.get_string("mode") == "line" && knife_line_closes(trail_, params.get_float("close"))) {
         OverlayLines piece{{}, Vec3(0.85, 0.05, 0.1), GL_LINES, 2.5f, 1.0f};
         push(piece.xyz, lifted(trail_.back()));
         push(piece.xyz, lifted(trail_.front()));

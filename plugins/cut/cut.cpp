@@ -98,11 +98,7 @@ class CutTool : public Tool {
     line.points = drawn(g);
     if (started_off_cloth_) line.from = first_position_;
     if (ended_off_cloth) line.to = last_position;
-    // Closed: it came back to where it began, on the cloth, after going well away from there.
-    double away = 0;
-    for (const Vec3& p : line.points) away = std::max(away, (p - line.points.front()).norm());
-    line.closed = !started_off_cloth_ && !ended_off_cloth && close_ > 0 && line.points.size() >= 4 &&
-                  (line.points.back() - line.points.front()).norm() <= close_ && away > 2 * close_;
+    line.closed = !started_off_cloth_ && !ended_off_cloth && knife_line_closes(line.points, close_);
     // The stroke's return to its start is the closing piece of the line, which the knife draws.
     if (line.closed)
       while (line.points.size() > 3 && (line.points.back() - line.points.front()).norm() <= 0.5 * close_)

@@ -58,6 +58,11 @@ struct KnifeCut {
 // line that crosses itself inside one triangle is refused (InputError), changing nothing.
 KnifeCut cut_line(Garment& g, const KnifeLine& line);
 
+// Whether a stroke's points on the cloth make a closed line for the knife: its end came back
+// within `within` metres of its start after going more than twice that away (the cut tool's rule,
+// which an app's preview shares).
+bool knife_line_closes(const std::vector<Vec3>& points, double within);
+
 // The line the knife would follow, without cutting: a preview.
 std::vector<Vec3> trace_line(const Garment& g, const KnifeLine& line);
 

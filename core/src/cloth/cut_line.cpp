@@ -786,6 +786,13 @@ class Knife {
 
 KnifeCut cut_line(Garment& g, const KnifeLine& line) { return Knife(g, line).run(&g); }
 
+bool knife_line_closes(const std::vector<Vec3>& points, double within) {
+  if (!(within > 0) || points.size() < 4) return false;
+  double away = 0;
+  for (const Vec3& p : points) away = std::max(away, (p - points.front()).norm());
+  return (points.back() - points.front()).norm() <= within && away > 2 * within;
+}
+
 std::vector<Vec3> trace_line(const Garment& g, const KnifeLine& line) { return Knife(g, line).run(nullptr).line; }
 
 }  // namespace kiji

@@ -6,6 +6,7 @@
 #include <kiji/tool.h>
 #include <kiji/topology.h>
 
+#include <algorithm>
 #include <limits>
 
 namespace {
@@ -72,7 +73,7 @@ class CutTool : public Tool {
     }
     if (e.hit.garment != garment_) return;
     if (points_.empty() || points_.back() != e.hit.nearest) points_.push_back(e.hit.nearest);
-    marks_.push_back({e.hit.face, e.hit.barycentric, e.hit.point});
+    marks_.push_back({e.hit.face, e.hit.barycentric, e.hit.point, e.ray});
   }
 
   // Where the line was drawn, on the cloth as it lies now: the cloth may have moved under the
@@ -98,12 +99,27 @@ class CutTool : public Tool {
     line.points = drawn(g);
     if (started_off_cloth_) line.from = first_position_;
     if (ended_off_cloth) line.to = last_position;
+    // Drawn in a view (every point with a ray), the line is what the stroke covers as seen.
+    if (std::all_of(marks_.begin(), marks_.end(), [](const Mark& m) { return m.ray.squaredNorm() > 0; }))
+      for (const Mark& m : marks_) line.sweeps.push_back(m.ray.normalized());
     line.closed = !started_off_cloth_ && !ended_off_cloth && knife_line_closes(line.points, close_);
     // The stroke's return to its start is the closing piece of the line, which the knife draws.
     if (line.closed)
-      while (line.points.size() > 3 && (line.points.back() - line.points.front()).norm() <= 0.5 * close_)
+      while (line.points.size() > 3 && (line.points.back() - line.points.front()).norm() <= 0.5 * close_) {
         line.points.pop_back();
+        if (!line.sweeps.empty()) line.sweeps.pop_back();
+      }
     if (line.points.size() < 2 && !line.from && !line.to) return;  // a tap: nothing drawn to cut
+    if (line.closed && !line.sweeps.empty()) {
+      // A closed line that the view's sheet did not close round (it can miss where the surface is
+      // steep to the view) is cut again by walking over the surface between the points.
+      const Garment before = g;
+      const std::size_t pieces = g.count_pieces();
+      cut_line(g, line);
+      if (g.count_pieces() > pieces) return;
+      g = before;
+      line.sweeps.clear();
+    }
     cut_line(g, line);
   }
 
@@ -167,6 +183,7 @@ class CutTool : public Tool {
     Face face;
     Vec3 weights;
     Vec3 point;
+    Vec3 ray;  // the view's ray at the point (zero: a pen's, or a script's, event)
   };
   enum class Mode { Line, Edges, Vertex };
   Mode mode_ = Mode::Line;

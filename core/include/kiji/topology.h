@@ -42,6 +42,10 @@ struct KnifeLine {
   // Where the stroke was off the cloth before its first point, or after its last: the line goes on
   // over the surface towards it, to the border if the border lies on the way.
   std::optional<Vec3> from, to;
+  // For a line drawn in a view: the direction of the view's ray at each point (empty: none). Between
+  // two points the line follows where the surface meets the sheet those rays sweep, so that it lies
+  // under the stroke as seen, over folds and slopes a walk towards the next point stops on.
+  std::vector<Vec3> sweeps;
 };
 
 struct KnifeCut {

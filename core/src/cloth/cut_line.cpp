@@ -157,6 +157,107 @@ class Walker {
     return true;
   }
 
+  // Follows the curve where the surface meets a plane (through c.point, with normal `normal`): the
+  // sheet a stroke drawn in a view sweeps along the view's rays. It starts from c towards the stop
+  // and goes face to face wherever the surface takes that curve (under a fold too: the line
+  // stays on its layer), until it passes the half-plane {x : (x - end).dot(stop) >= 0}, where it
+  // stops (true), or meets the border (false). A face the plane does not cross (the point is off
+  // it by rounding) or one lying in the plane ends the sheet's part: the walk towards `end` goes on.
+  bool sweep(Cursor& c, const Vec3& normal, const Vec3& end, const Vec3& stop, std::vector<Crossing>& out) {
+    const Vec3 origin = c.point;
+    // Where the plane crosses a face: the edges (an edge opposite corner k joins corners k+1 and
+    // k+2) and the shares along them; a corner on the plane counts as on its positive side, so
+    // that each crossing belongs to one edge and neighbouring faces agree.
+    struct Section {
+      int edges[2];
+      double at[2];
+      int found = 0;
+    };
+    auto section = [&](int face) {
+      const auto& f = s_.faces[face];
+      double d[3];
+      for (int k = 0; k < 3; ++k) d[k] = (pos(f[k]) - origin).dot(normal);
+      Section q;
+      for (int k = 0; k < 3 && q.found < 2; ++k) {
+        const double da = d[(k + 1) % 3], db = d[(k + 2) % 3];
+        if ((da < 0) != (db < 0)) {
+          q.edges[q.found] = k;
+          q.at[q.found] = da / (da - db);
+          ++q.found;
+        }
+      }
+      return q;
+    };
+    auto point_on = [&](int face, const Section& q, int i) {
+      const auto& f = s_.faces[face];
+      const int k = q.edges[i];
+      return Vec3((1 - q.at[i]) * pos(f[(k + 1) % 3]) + q.at[i] * pos(f[(k + 2) % 3]));
+    };
+    {
+      // The way ahead (towards the stop, across the view: depth does not count): the cursor may be on
+      // an edge or a corner (moved there by an earlier cut), and the section that leads forwards
+      // from it may be in a face next to its own.
+      const double tiny = 1e-9 * (1 + c.point.norm());
+      std::vector<int> faces{c.face};
+      for (std::size_t i = 0; i < faces.size() && faces.size() < 64; ++i) {
+        const auto& f = s_.faces[faces[i]];
+        for (int k = 0; k < 3; ++k) {
+          const Vec3 a = pos(f[(k + 1) % 3]), b = pos(f[(k + 2) % 3]);
+          const double t = std::clamp((c.point - a).dot(b - a) / std::max((b - a).squaredNorm(), 1e-300), 0.0, 1.0);
+          if ((a + t * (b - a) - c.point).norm() > tiny) continue;
+          const int next = adj_.other(edge_key(f[(k + 1) % 3], f[(k + 2) % 3]), faces[i]);
+          if (next >= 0 && std::find(faces.begin(), faces.end(), next) == faces.end()) faces.push_back(next);
+        }
+      }
+      double best = tiny;
+      int best_face = -1, best_exit = 0;
+      Section best_section;
+      for (int face : faces) {
+        const Section q = section(face);
+        if (q.found < 2) continue;
+        for (int i = 0; i < 2; ++i) {
+          const double forward = (point_on(face, q, i) - c.point).dot(stop);
+          if (forward > best) best = forward, best_face = face, best_exit = i, best_section = q;
+        }
+      }
+      if (best_face < 0) return walk(c, end, out);
+      c.face = best_face;
+      c.entered_opposite = best_section.edges[1 - best_exit];
+    }
+    for (std::size_t guard = 0; guard < 4 * s_.faces.size() + 16; ++guard) {
+      const auto& f = s_.faces[c.face];
+      const Section q = section(c.face);
+      if (q.found < 2) return walk(c, end, out);
+      const int exit = q.edges[0] == c.entered_opposite ? 1 : 0;
+      if (q.edges[exit] == c.entered_opposite) return walk(c, end, out);
+      const Vec3 x = point_on(c.face, q, exit);
+      const double h0 = (c.point - end).dot(stop), h1 = (x - end).dot(stop);
+      if (h1 >= 0) {  // the stop is in this face
+        const double u = h0 >= 0 ? 0.0 : h0 / (h0 - h1);
+        c.point = c.point + u * (x - c.point);
+        return true;
+      }
+      const int k = q.edges[exit];
+      Index a = f[(k + 1) % 3], b = f[(k + 2) % 3];
+      double t = q.at[exit];
+      if (a > b) std::swap(a, b), t = 1.0 - t;
+      Crossing cross;
+      cross.a = a;
+      cross.b = b;
+      cross.t = t;
+      cross.point = x;
+      cross.from = c.face;
+      cross.to = adj_.other(edge_key(a, b), c.face);
+      out.push_back(cross);
+      if (cross.to < 0) return false;
+      const auto& g = s_.faces[cross.to];
+      int opposite = 0;
+      while (g[opposite] == a || g[opposite] == b) ++opposite;
+      c = Cursor{cross.to, x, opposite};
+    }
+    return true;
+  }
+
  private:
   enum class Leave { Stopped, Border, Crossed };
   // Leaves c's face on the segment from barycentric lq towards lt (not by the edge it came in by):
@@ -321,7 +422,7 @@ class Knife {
     }
     followed_.push_back(c.point);
     bool on_cloth = true;
-    for (std::size_t i = 1; i < line_.points.size() && on_cloth; ++i) on_cloth = step(walker, c, line_.points[i]);
+    for (std::size_t i = 1; i < line_.points.size() && on_cloth; ++i) on_cloth = step(walker, c, i);
     if (on_cloth && line_.to) {
       on_cloth = step(walker, c, *line_.to);
       if (on_cloth) on_cloth = run_on(walker, c, heading(followed_, c.point, *line_.to - c.point));
@@ -330,6 +431,7 @@ class Knife {
     if (closed_ && crossings_.size() >= 2) {
       // Back to where the line first crossed an edge; a crossing of that same point again is that one.
       const Crossing first_crossing = crossings_.front();
+      if (swept()) step(walker, c, 0);
       step(walker, c, first_crossing.point);
       const double tiny = 1e-9 * (1.0 + first_crossing.point.norm());
       while (crossings_.size() > 2 && (crossings_.back().point - first_crossing.point).norm() < tiny) {
@@ -364,6 +466,23 @@ class Knife {
   bool step(Walker& walker, Cursor& c, const Vec3& target) {
     std::vector<Crossing> part;
     return follow(walker.walk(c, target, part), part);
+  }
+
+  bool swept() const { return line_.sweeps.size() == line_.points.size(); }
+
+  // To the line's point i: along the sheet its stroke swept (from the last point's sweep direction
+  // through the cursor and point i, to point i's), or over the surface towards it.
+  bool step(Walker& walker, Cursor& c, std::size_t i) {
+    const Vec3& target = line_.points[i];
+    if (!swept()) return step(walker, c, target);
+    const Vec3 ahead = target - c.point;
+    const std::size_t from = i == 0 ? line_.points.size() - 1 : i - 1;
+    const Vec3 normal = ahead.cross(line_.sweeps[from]);
+    Vec3 stop = normal.cross(line_.sweeps[i]);
+    if (!(normal.norm() > 1e-12 * (1 + ahead.norm())) || !(stop.norm() > 0)) return step(walker, c, target);
+    if ((c.point - target).dot(stop) > 0) stop = -stop;
+    std::vector<Crossing> part;
+    return follow(walker.sweep(c, normal.normalized(), target, stop.normalized(), part), part);
   }
 
   // Takes a walk's crossings into the line; returns whether the walk is still on the cloth.

@@ -110,16 +110,6 @@ class CutTool : public Tool {
         if (!line.sweeps.empty()) line.sweeps.pop_back();
       }
     if (line.points.size() < 2 && !line.from && !line.to) return;  // a tap: nothing drawn to cut
-    if (line.closed && !line.sweeps.empty()) {
-      // A closed line that the view's sheet did not close round (it can miss where the surface is
-      // steep to the view) is cut again by walking over the surface between the points.
-      const Garment before = g;
-      const std::size_t pieces = g.count_pieces();
-      cut_line(g, line);
-      if (g.count_pieces() > pieces) return;
-      g = before;
-      line.sweeps.clear();
-    }
     cut_line(g, line);
   }
 

@@ -44,7 +44,8 @@ struct KnifeLine {
   std::optional<Vec3> from, to;
   // For a line drawn in a view: the direction of the view's ray at each point (empty: none). Between
   // two points the line follows where the surface meets the sheet those rays sweep, so that it lies
-  // under the stroke as seen, over folds and slopes a walk towards the next point stops on.
+  // under the stroke as seen, over folds and slopes a walk towards the next point stops on. A
+  // closed line that the sheet does not cut out is walked instead.
   std::vector<Vec3> sweeps;
 };
 

@@ -903,7 +903,22 @@ class Knife {
 
 }  // namespace
 
-KnifeCut cut_line(Garment& g, const KnifeLine& line) { return Knife(g, line).run(&g); }
+KnifeCut cut_line(Garment& g, const KnifeLine& line) {
+  if (line.closed && !line.sweeps.empty()) {
+    // A closed line whose sheet made no piece (it can miss where the surface is steep to the view)
+    // is cut by walking over the surface between its points instead.
+    Garment swept = g;
+    const KnifeCut cut = Knife(g, line).run(&swept);
+    if (swept.count_pieces() > g.count_pieces()) {
+      g = std::move(swept);
+      return cut;
+    }
+    KnifeLine walked = line;
+    walked.sweeps.clear();
+    return Knife(g, walked).run(&g);
+  }
+  return Knife(g, line).run(&g);
+}
 
 bool knife_line_closes(const std::vector<Vec3>& points, double within) {
   if (!(within > 0) || points.size() < 4) return false;

@@ -141,12 +141,8 @@ int main(int argc, char** argv) {
     return 0;
   }
 
-  // OpenGL 3.3 core: what the viewport's shaders are written for, and what Mesa gives without a GPU.
-  QSurfaceFormat format;
-  format.setVersion(3, 3);
-  format.setProfile(QSurfaceFormat::CoreProfile);
-  format.setDepthBufferSize(24);
-  QSurfaceFormat::setDefaultFormat(format);
+  // The viewport's format for every context, so that Qt's composition of the view shares it.
+  QSurfaceFormat::setDefaultFormat(Viewport::surface_format());
   QApplication app(argc, argv);
   QApplication::setApplicationName("Kiji Studio");
 

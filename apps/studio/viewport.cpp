@@ -65,7 +65,16 @@ QString centimetres(double metres) { return QString("%1 cm").arg(metres * 100, 0
 
 }  // namespace
 
+QSurfaceFormat Viewport::surface_format() {
+  QSurfaceFormat format = QSurfaceFormat::defaultFormat();
+  format.setVersion(3, 3);
+  format.setProfile(QSurfaceFormat::CoreProfile);
+  format.setDepthBufferSize(std::max(24, format.depthBufferSize()));
+  return format;
+}
+
 Viewport::Viewport(Studio& studio) : studio_(studio) {
+  setFormat(surface_format());
   timer_.setTimerType(Qt::PreciseTimer);
   connect(&timer_, &QTimer::timeout, this, &Viewport::tick);
   timer_.start(16);
@@ -330,8 +339,11 @@ void Viewport::build_overlay(const SceneFrame& frame, Overlay& overlay, std::vec
     double floor = frame.body ? frame.body->bounds().min().y() : 0.0;
     if (!std::isfinite(floor)) floor = 0;
     const Vec3 land = below.hit ? below.point : Vec3(tip.x(), std::min(floor, tip.y()), tip.z());
-    drop_ = land;
-    if ((tip - land).norm() > 0.004) {
+    // Down to the floor only for a Phantom's pen or cloth a stroke holds: a mouse cursor over
+    // nothing floats on the view's plane, and its line would cross the picture and mean nothing.
+    const bool in_air = studio_.device_kind() == DeviceKind::Phantom || frame.stroke_holds_cloth;
+    if (below.hit || in_air) drop_ = land;
+    if (drop_ && (tip - land).norm() > 0.004) {
       overlay.lines.push_back({dashed(tip, land, 0.006 * scale), kDrop, GL_LINES, 1.5f, 0.8f});
       const double r = 0.012 * scale;
       for (double k : {1.0, 0.6, 0.25})

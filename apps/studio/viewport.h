@@ -31,6 +31,7 @@
 
 #include <QElapsedTimer>
 #include <QOpenGLWindow>
+#include <QSurfaceFormat>
 #include <QTimer>
 
 #include <deque>
@@ -45,6 +46,10 @@ class Viewport : public QOpenGLWindow {
  public:
   explicit Viewport(Studio& studio);
   ~Viewport() override;
+  // What the view draws with: OpenGL 3.3 core (the shaders', and what Mesa gives without a GPU)
+  // and a depth buffer. The viewport asks for it itself, so that a host which sets no default
+  // format (a test, another application) does not draw the body and the cloth without depth.
+  static QSurfaceFormat surface_format();
   // The widget that holds the view in a layout (made on the first call; owned by its parent).
   QWidget* widget(QWidget* parent = nullptr);
 
@@ -79,8 +84,8 @@ class Viewport : public QOpenGLWindow {
   void clear_selection();
   // The trail of the stroke in progress or the last one (world points on the cloth).
   const std::vector<Vec3>& trail() const { return trail_; }
-  // Where the drop line from the pointer lands (the cloth or body below it, else the floor), if the
-  // pointer is drawn.
+  // Where the drop line from the pointer lands: the cloth or body below it; the floor only for a
+  // Phantom's pen or cloth held by a stroke. None: no line (nothing below a mouse cursor, no pointer).
   std::optional<Vec3> drop_point() const { return drop_; }
   // While a pinch-sew drags a border vertex: the vertex it would be sewn to, as last drawn (its
   // position, the distance to it, and whether that is within the sewing distance).

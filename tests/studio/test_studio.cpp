@@ -923,10 +923,12 @@ class StudioTest : public QObject {
         {{x0 + 0.02, chest - 0.3 * h, front}, {x0 + 0.06, chest - h, front}},
         {{x0 + 0.12, chest, front}, {x0 + 0.12, chest - h, front}},
     };
+    std::vector<Vec3> drawn;
     for (const auto& l : letters) {
       std::vector<Vec3> dense;
       for (int i = 0; i <= 10; ++i) dense.push_back(l[0] + (l[1] - l[0]) * (i / 10.0));
       QVERIFY(xdotool(x_drag(dense)));
+      drawn.insert(drawn.end(), dense.begin(), dense.end());
     }
     QVERIFY(wait_until([&] { return strokes() == 7; }));
     auto painted = [&] {
@@ -941,6 +943,17 @@ class StudioTest : public QObject {
     const std::size_t texels = painted();
     QVERIFY2(texels > 200, qPrintable(QString("%1 texels painted").arg(texels)));
     shot("8_painted");
+    // And the letters are seen where they were drawn: the view shows the brush's blue there (it
+    // drew the cloth's back panel over its front when the view had no depth buffer).
+    {
+      const QImage seen = view.grabFramebuffer();
+      std::size_t blue = 0;
+      for (const Vec3& p : drawn) {
+        const QColor c = seen.pixelColor(view.project(p).toPoint() * seen.devicePixelRatio());
+        if (c.blue() > c.red() + 40) ++blue;
+      }
+      QVERIFY2(blue >= drawn.size() / 2, qPrintable(QString("%1 of the %2 points drawn are seen blue").arg(blue).arg(drawn.size())));
+    }
 
     // 6. Saved, opened again (the same garment and paint), exported.
     const QString file = tmp_ + "/experiment.kiji";
@@ -1204,6 +1217,10 @@ class StudioTest : public QObject {
              qPrintable(QString("the pointer at (%1, %2, %3) drops to y %4").arg(pointer.x()).arg(pointer.y()).arg(pointer.z()).arg(v.drop_point()->y())));
     QVERIFY(std::abs(v.drop_point()->x() - pointer.x()) < 1e-6);
     window_->grab_window().save(tmp_ + "/drop_line.png");  // to look at
+    // The cursor in a corner of the view, over nothing: no line down to the floor across the picture.
+    QTest::mouseMove(&v, QPoint(v.width() - 10, 10));
+    QVERIFY2(wait_until([&] { return studio_->frame()->pointer.position.x() > 0.5 && !v.drop_point(); }, 3000),
+             "a mouse pointer over nothing still drops a line");
   }
 
   void a_pinch_sew_shows_the_vertex_it_would_join_before_it_joins_it() {

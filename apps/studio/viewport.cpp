@@ -11,6 +11,7 @@
 #include <QWidget>
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 
 namespace kiji::studio {
@@ -468,7 +469,8 @@ void Viewport::follow_phantom(const SceneFrame& frame) {
   dirty_ = true;
 }
 
-Viewport::BorderHit Viewport::border_near(const QPointF& at, double pixels, int only_garment, int only_loop) {
+Viewport::BorderHit Viewport::border_near(const QPointF& at, double pixels, int only_garment, int only_loop,
+                                          std::uint32_t continuing) {
   BorderHit best;
   const auto frame = studio_.frame();
   if (!frame) return best;
@@ -493,6 +495,24 @@ Viewport::BorderHit Viewport::border_near(const QPointF& at, double pixels, int 
     }
   }
   std::sort(near.begin(), near.end(), [](const Candidate& a, const Candidate& b) { return a.pixels < b.pixels; });
+  if (continuing != kNone && only_garment >= 0) {
+    // A drag goes on along the border: a vertex reached from `continuing` only round the loop (in
+    // a side view, the other panel's border lies under the cursor, across the hem) is dropped.
+    const GarmentFrame& g = frame->garments[std::size_t(only_garment)];
+    const GarmentShape* shape = shapes_.get(*frame, std::size_t(only_garment));
+    const Vec3 start = shape->position(g, continuing);
+    auto direct = [&](const Candidate& c) {
+      double best = std::numeric_limits<double>::infinity();
+      for (bool forward : {true, false}) {
+        const auto path = shape->along(continuing, c.vertex, forward);
+        double length = 0;
+        for (std::size_t i = 1; i < path.size(); ++i) length += (shape->position(g, path[i]) - shape->position(g, path[i - 1])).norm();
+        if (!path.empty()) best = std::min(best, length);
+      }
+      return best <= 1.5 * (c.position - start).norm() + 0.03;
+    };
+    near.erase(std::remove_if(near.begin(), near.end(), [&](const Candidate& c) { return !direct(c); }), near.end());
+  }
   // The nearest seen: not behind cloth or body (a few tried, nearest first).
   const Vec3 eye = camera_.eye();
   for (std::size_t i = 0; i < near.size() && i < 6; ++i) {
@@ -711,7 +731,8 @@ void Viewport::mouseMoveEvent(QMouseEvent* e) {
     const GarmentShape* shape = frame && gi >= 0 ? shapes_.get(*frame, std::size_t(gi)) : nullptr;
     if (shape && !seams_.stretch().empty()) {
       // Along the border the drag began on, within a generous reach of the cursor.
-      const BorderHit h = border_near(e->position(), 3 * kBorderReach, gi, shape->loop_of[seams_.stretch().front()]);
+      const BorderHit h = border_near(e->position(), 3 * kBorderReach, gi, shape->loop_of[seams_.stretch().front()],
+                                      seams_.stretch().back());
       if (h.vertex != kNone) seams_.drag(h.vertex, *shape);
     }
     push_pointer(e->position(), 0u);

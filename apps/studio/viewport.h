@@ -126,12 +126,14 @@ class Viewport : public QOpenGLWindow {
   void push_pointer(const QPointF& at, std::uint32_t buttons);
   Vec3 cursor_ray(const QPointF& at) const;
   // The border vertex seen nearest a point of the view within `pixels` (not hidden by cloth or body
-  // in front of it); only on `loop` of `garment` when those are given.
+  // in front of it); only on `loop` of `garment` when those are given. With `continuing` (a vertex
+  // of that loop), only a vertex the border reaches from it about as directly as a straight line.
   struct BorderHit {
     int garment = -1;
     std::uint32_t vertex = kNone;
   };
-  BorderHit border_near(const QPointF& at, double pixels, int garment = -1, int loop = -1);
+  BorderHit border_near(const QPointF& at, double pixels, int garment = -1, int loop = -1,
+                        std::uint32_t continuing = kNone);
   // The nearest border vertex to a world point within `reach` (a Phantom's pen picking a seam).
   BorderHit border_near(const Vec3& at, double reach);
   bool seam_mode() const;

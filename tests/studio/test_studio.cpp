@@ -623,6 +623,48 @@ class StudioTest : public QObject {
     QVERIFY(wait_until([&] { return border_loop_count() == 1; }));
   }
 
+  // A cloth folded over a bar, seen from its side: its front's side border and its back's run 10 cm
+  // apart on the screen and meet over the fold. A drag up the front's border, the cursor nearer the
+  // back's, picks the front's: the border under the cursor is taken only where the border runs on
+  // from the stretch so far, not round the loop over the fold and down the back.
+  void a_seam_pick_drag_stays_on_the_border_it_follows() {
+    hanging_square(0.05);
+    studio_->loop().call([](Session& s) {
+      Garment g = s.garment(0);
+      const Box3 b = g.bounds();
+      for (Vertex w : g.mesh().vertices()) {
+        const Vec3 p = g.position(w);
+        const double u = (p.y() - b.min().y()) / (b.max().y() - b.min().y()) - 0.5;  // 0 at the fold
+        g.set_position(w, Vec3(p.x(), 1.6 - std::abs(u), u > 1e-9 ? 0.05 : (u < -1e-9 ? -0.05 : 0.0)));
+      }
+      s.set_garment(0, g);
+    });
+    ToolPanel& panel = window_->tool_panel();
+    panel.choose("sew");
+    qobject_cast<QComboBox*>(panel.params().editor("mode"))->setCurrentText("seam");
+    Viewport& v = window_->viewport();
+    v.set_view(Viewport::View::Right);
+    QTest::qWait(150);
+    const double x = with_session([](Session& s) { return s.garment(0).bounds().max().x(); });
+    std::vector<Vec3> path{{x, 1.1, 0.05}};
+    for (int i = 0; i <= 20; ++i) path.emplace_back(x, 1.12 + 0.22 * i / 20.0, -0.006);
+    const QPointF cursor = v.project(path[1]), back = v.project(Vec3(x, 1.12, -0.05)), front = v.project(Vec3(x, 1.12, 0.05));
+    QVERIFY2(QLineF(cursor, back).length() < QLineF(cursor, front).length() && QLineF(cursor, front).length() < 3 * 14,
+             qPrintable(QString("cursor to back %1 px, to front %2 px").arg(QLineF(cursor, back).length()).arg(QLineF(cursor, front).length())));
+    drag_along(path);
+    SeamPicker& picker = v.seam_picker();
+    QCOMPARE(picker.stage(), SeamPicker::Stage::Second);
+    const auto picked = with_session([&](Session& s) {
+      std::vector<Vec3> p;
+      for (std::uint32_t i : picker.first()) p.push_back(s.garment(0).position(Vertex(i)));
+      return p;
+    });
+    QVERIFY2(picked.size() >= 5, qPrintable(QString("%1 vertices picked").arg(picked.size())));
+    for (const Vec3& p : picked)
+      QVERIFY2(p.z() > 0.03 && p.y() < 1.4, qPrintable(QString("picked (%1, %2, %3), not on the front's side border below the cursor's top")
+                                                     .arg(p.x()).arg(p.y()).arg(p.z())));
+  }
+
   void a_seam_is_sewn_with_real_x_events_and_undone() {
     if (QString(KIJI_XDOTOOL).isEmpty()) QSKIP("xdotool was not found when this test was built (scripts/setup.sh installs it)");
     hanging_square(0.1);

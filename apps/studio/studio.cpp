@@ -406,7 +406,7 @@ bool Studio::sew_seam(int garment, const std::vector<std::uint32_t>& first, cons
       trace(second, kButtonSecondary);
       stroke.front().phase = Phase::Begin;
       stroke.back().phase = Phase::End;
-      ParamSet params = s.params_for("sew", {{"mode", std::string("seam")}});
+      ParamSet params = s.params_for("sew", {{"mode", std::string("seam")}, {"join", std::string("closing")}});
       if (primary_.id == "sew") {
         params = primary_.params;
         params.set("mode", std::string("seam"));

@@ -294,6 +294,9 @@ ToolPanel::ToolPanel(const ToolRegistry& tools, QWidget* parent) : QWidget(paren
     grid->addWidget(b, i / 2, i % 2);
     buttons_[id] = b;
     values_[id] = ParamSet(info.parameters);
+    // A seam sewn by hand closes as the cloth is drawn together, as in garment tools; the tool's own
+    // default (at once) is what scripts and earlier journals have.
+    if (id == "sew" && values_[id].values().count("join")) values_[id].set("join", std::string("closing"));
     ++i;
   }
   layout->addLayout(grid);

@@ -214,6 +214,19 @@ void Viewport::build_overlay(const SceneFrame& frame, Overlay& overlay, std::vec
   auto lifted = [&](const Vec3& p) { return Vec3(p + 0.001 * (eye - p).normalized()); };
   const double scale = camera_.distance / 3.0;
 
+  // Seams closing: each tacked pair joined by a thin line, until the simulation draws it shut.
+  for (std::size_t gi = 0; gi < frame.garments.size(); ++gi) {
+    const GarmentFrame& g = frame.garments[gi];
+    const GarmentShape* shape = g.tacks.empty() ? nullptr : shapes_.get(frame, gi);
+    if (!shape) continue;
+    OverlayLines closing{{}, kSewn, GL_LINES, 1.5f, 0.8f};
+    for (std::size_t k = 0; k + 1 < g.tacks.size(); k += 2) {
+      push(closing.xyz, lifted(shape->position(g, g.tacks[k])));
+      push(closing.xyz, lifted(shape->position(g, g.tacks[k + 1])));
+    }
+    overlay.lines.push_back(std::move(closing));
+  }
+
   // The seams sewn: dashed, as stitches.
   for (std::size_t gi = 0; gi < frame.garments.size(); ++gi) {
     const GarmentShape* shape = shapes_.get(frame, gi);

@@ -1,6 +1,7 @@
 // sew: joins cloth. As in the 2006 paper, a vertex dragged within a distance of another is merged
 // with it, and edges that then coincide become one (mode 'pinch'); or a whole seam at once: the
-// stroke traces one border with the primary button and the other with the secondary (mode 'seam').
+// stroke traces one border with the primary button and the other with the secondary (mode 'seam'),
+// joined at once or tacked and sewn as the simulation draws them together (join 'closing').
 #include <kiji/error.h>
 #include <kiji/tool.h>
 #include <kiji/topology.h>
@@ -22,11 +23,16 @@ class SewTool : public Tool {
             {ParamSpec::choice("mode", "pinch", {"pinch", "seam"}, "Mode",
                                "'pinch' sews vertex to vertex as you drag; 'seam' sews two traced borders."),
              ParamSpec::real("distance", 0.01, 0.0, 0.5, "m", "Sewing distance",
-                             "A dragged vertex this close to another border vertex is sewn to it.")}};
+                             "A dragged vertex this close to another border vertex is sewn to it."),
+             ParamSpec::choice("join", "at once", {"at once", "closing"}, "Join",
+                               "Mode 'seam': 'at once' joins the two borders where they are; 'closing' tacks each "
+                               "pair and the simulation draws the borders together, sewing them as they meet "
+                               "(while it is paused they stay tacked).")}};
   }
 
   Feedback begin(ToolContext& context, const ParamSet& params, const ToolEvent& event) override {
     seam_mode_ = params.get_string("mode") == "seam";
+    closing_ = params.get_string("join") == "closing";
     distance_ = params.get_float("distance");
     side_a_.clear();
     side_b_.clear();
@@ -165,10 +171,14 @@ class SewTool : public Tool {
                        "second with the secondary");
     Garment& g = context.garment(garment_);
     const auto a = along_border(g, side_a_), b = along_border(g, side_b_);
-    stitch(g, a, b);
+    if (closing_)
+      tack_seam(g, a, b);
+    else
+      stitch(g, a, b);
   }
 
   bool seam_mode_ = false;
+  bool closing_ = false;
   double distance_ = 0.01;
   std::size_t garment_ = 0;
   Vertex grabbed_;

@@ -308,6 +308,29 @@ void bind_topology(py::module_& m) {
   }, py::arg("garment"), py::arg("a"), py::arg("b"),
      "Sews two border polylines (vertex rows) into a seam, a[0] to b[0] ... last to last; no border is\n"
      "left along it.");
+  m.def("tack_seam", [](const RefPtr& g, py::handle a, py::handle b) {
+    py::array_t<std::int64_t> out;
+    check(g)->edit([&](Garment& gm) {
+      const auto pairs = tack_seam(gm, vertices_at(gm, a, "tack_seam"), vertices_at(gm, b, "tack_seam"));
+      const VertexRows rows(gm);
+      out = py::array_t<std::int64_t>({static_cast<py::ssize_t>(pairs.size()), py::ssize_t(2)});
+      for (std::size_t i = 0; i < pairs.size(); ++i) {
+        out.mutable_data()[2 * i] = rows.row[pairs[i].first.idx()];
+        out.mutable_data()[2 * i + 1] = rows.row[pairs[i].second.idx()];
+      }
+    });
+    return out;
+  }, py::arg("garment"), py::arg("a"), py::arg("b"),
+     "A seam sewn as it closes: the two border polylines (vertex rows) paired as stitch pairs them, and\n"
+     "each pair tacked (garment.tacks): a session's simulation draws them together and sews the pairs\n"
+     "as they meet. Returns the (N, 2) rows tacked.");
+  m.def("close_tacks", [](const RefPtr& g, double within) {
+    std::size_t sewn = 0;
+    check(g)->edit([&](Garment& gm) { sewn = close_tacks(gm, within); });
+    return sewn;
+  }, py::arg("garment"), py::arg("within"),
+     "Sews every run of two or more tacks whose vertices are within `within` m of each other along both\n"
+     "borders (a session does this after each step); returns the number of pairs sewn.");
   m.def("append_garment", [](const RefPtr& g, const RefPtr& other) {
     check(other);
     Garment copy;

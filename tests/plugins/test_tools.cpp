@@ -562,6 +562,49 @@ TEST(Sew, TwoPanelsSewnAlongASeamHaveNoBorderAlongIt) {
   }
 }
 
+// join 'closing': the traced borders are tacked pair by pair, nothing joins while the simulation
+// is paused, and running it draws the panels together and sews the seam as the pairs meet.
+TEST(Sew, ASeamThatClosesIsTackedThenSewnAsTheSimulationDrawsItTogether) {
+  Session s(plugins());
+  Garment a = make_rectangle(0.5, 1.0, 21, 41);  // 2.5 cm apart
+  Garment b = make_rectangle(0.5, 1.0, 21, 41);
+  b.transform(Eigen::Affine3d(Eigen::Translation3d(0.6, 0, 0)));
+  append_garment(a, b);
+  s.add_garment(std::move(a));
+  SolverParams weightless = s.solver_params();
+  weightless.gravity = Vec3::Zero();
+  s.set_solver_params(weightless);
+  s.set_simulating(false);
+  Stroke stroke = line(Vec3(0.5, 0.0, 0.005), Vec3(0.5, 1.0, 0.005), 40);
+  Stroke second = line(Vec3(0.6, 0.0, 0.005), Vec3(0.6, 1.0, 0.005), 40, stroke.back().time, 1.0 / 60,
+                       kButtonSecondary);
+  stroke.back().phase = Phase::Move;
+  second.front().phase = Phase::Move;
+  stroke.insert(stroke.end(), second.begin(), second.end());
+  s.run("sew", s.params_for("sew", {{"mode", std::string("seam")}, {"join", std::string("closing")}}), stroke);
+  EXPECT_EQ(s.garment(0).tacks.size(), 41u);
+  EXPECT_EQ(s.garment(0).count_pieces(), 2u);
+  for (int i = 0; i < 30; ++i) s.step();
+  EXPECT_EQ(s.garment(0).tacks.size(), 41u) << "a paused simulation leaves the seam tacked";
+  s.set_simulating(true);
+  for (int i = 0; i < 120 && !s.garment(0).tacks.empty(); ++i) s.step();
+  const Garment& g = s.garment(0);
+  EXPECT_TRUE(g.tacks.empty()) << "every pair met and was sewn";
+  EXPECT_TRUE(g.is_valid());
+  EXPECT_EQ(g.count_pieces(), 1u);
+  EXPECT_EQ(border_loops(g).size(), 1u) << "no border left along the seam";
+  // Both panels came to the seam, half way each: two 50 cm panels side by side (once the last
+  // step, under an edge long, has relaxed), centred where the pair was centred.
+  for (int i = 0; i < 60; ++i) s.step();
+  const Box3 box = g.bounds();
+  EXPECT_NEAR(box.max().x() - box.min().x(), 1.0, 0.03);
+  EXPECT_NEAR(0.5 * (box.max().x() + box.min().x()), 0.55, 0.02);
+  // The seam is one stroke: undone, the panels are apart and untacked again.
+  ASSERT_TRUE(s.undo());
+  EXPECT_EQ(s.garment(0).count_pieces(), 2u);
+  EXPECT_TRUE(s.garment(0).tacks.empty());
+}
+
 TEST(Paint, TexelsUnderTheStrokeFollowTheClothAndAreExported) {
   auto owner = flat_session(1.0, 1.0, 21, 21);
   Session& s = *owner;

@@ -126,6 +126,43 @@ def test_sew_a_rectangle_sewn_edge_to_edge_becomes_a_tube():
     assert g.is_valid()
 
 
+def test_a_seam_that_closes_is_tacked_and_sewn_as_the_session_steps():
+    a = kiji.rectangle(0.5, 1.0, nx=21, ny=41)
+    b = kiji.rectangle(0.5, 1.0, nx=21, ny=41)
+    b.translate((0.6, 0, 0))
+    faces = np.vstack([a.faces, b.faces + a.vertex_count])
+    both = kiji.Garment(np.vstack([a.positions, b.positions]), faces, uvs=np.concatenate([a.uvs, b.uvs]))
+    s = kiji.Session()
+    g = s.add_garment(both)
+    s.simulating = False
+    first = line((0.5, 0, 0.005), (0.5, 1.0, 0.005), 40)
+    second = line((0.6, 0, 0.005), (0.6, 1.0, 0.005), 40)
+    s.sew(np.vstack([first, second]), buttons=[1] * 41 + [2] * 41, mode="seam", join="closing")
+    assert len(g.tacks) == 41 and g.piece_count == 2, "tacked, not joined"
+    s.step(30)
+    assert len(g.tacks) == 41, "a paused session leaves the seam tacked"
+    s.simulating = True
+    for _ in range(120):
+        if len(g.tacks) == 0:
+            break
+        s.step()
+    assert len(g.tacks) == 0 and g.piece_count == 1 and len(g.border_loops()) == 1
+    assert g.is_valid()
+
+
+def test_tack_seam_and_close_tacks_sew_the_pairs_that_met():
+    g = kiji.rectangle(1.0, 0.5, nx=11, ny=6)
+    p = g.positions
+    left = np.flatnonzero(np.isclose(p[:, 0], 0.0))
+    right = np.flatnonzero(np.isclose(p[:, 0], 1.0))
+    left, right = left[np.argsort(p[left, 1])], right[np.argsort(p[right, 1])]
+    pairs = kiji.tack_seam(g, left, right)
+    assert pairs.shape == (6, 2) and len(g.tacks) == 6
+    assert kiji.close_tacks(g, 0.01) == 0, "a metre apart: nothing met"
+    with pytest.raises(kiji.InputError):
+        kiji.tack_seam(g, left[:1], right[:1])
+
+
 def test_sew_two_panels_along_a_seam_leave_no_border_along_it():
     a = kiji.rectangle(0.5, 1.0, nx=6, ny=11)
     b = kiji.rectangle(0.5, 1.0, nx=6, ny=11)

@@ -296,7 +296,9 @@ class StudioTest : public QObject {
             auto* combo = qobject_cast<QComboBox*>(e);
             QVERIFY(combo);
             QCOMPARE(combo->count(), int(p.choices.size()));
-            QCOMPARE(combo->currentText(), QString::fromStdString(std::get<std::string>(p.default_value)));
+            // The app's one choice of its own: a seam sewn by hand closes (the tool's default is at once).
+            const std::string shown = id == "sew" && p.name == "join" ? "closing" : std::get<std::string>(p.default_value);
+            QCOMPARE(combo->currentText(), QString::fromStdString(shown));
             break;
           }
           case ParamType::Color: QVERIFY(qobject_cast<QPushButton*>(e)); break;
@@ -594,6 +596,9 @@ class StudioTest : public QObject {
     ToolPanel& panel = window_->tool_panel();
     panel.choose("sew");
     qobject_cast<QComboBox*>(panel.params().editor("mode"))->setCurrentText("seam");
+    // Sewn at once: the square hangs paused, and a seam that closes (the app's default) stays tacked
+    // until the simulation draws it together (the experiment below sews that way).
+    qobject_cast<QComboBox*>(panel.params().editor("join"))->setCurrentText("at once");
     QTest::qWait(100);  // the view takes the buttons for picking
     const Box3 b = with_session([](Session& s) { return s.garment(0).bounds(); });
     SeamPicker& picker = window_->viewport().seam_picker();
@@ -671,6 +676,9 @@ class StudioTest : public QObject {
     ToolPanel& panel = window_->tool_panel();
     panel.choose("sew");
     qobject_cast<QComboBox*>(panel.params().editor("mode"))->setCurrentText("seam");
+    // Sewn at once: the square hangs paused, and a seam that closes (the app's default) stays tacked
+    // until the simulation draws it together (the experiment below sews that way).
+    qobject_cast<QComboBox*>(panel.params().editor("join"))->setCurrentText("at once");
     QTest::qWait(100);
     const Box3 b = with_session([](Session& s) { return s.garment(0).bounds(); });
     SeamPicker& picker = window_->viewport().seam_picker();
@@ -943,14 +951,21 @@ class StudioTest : public QObject {
       QVERIFY(xdotool(QStringList{"mousemove"} + screen(Vec3(crown.x(), body.max().y() + 0.2, crown.z())) + QStringList{"click", "1"}));
       QVERIFY(wait_until([&] { return strokes() == 2 + std::size_t(side); }));
     }
-    // One piece with four openings: the hem, the neck and two armholes.
-    QCOMPARE(pieces(), std::size_t(1));
-    QCOMPARE(border_loop_count(), std::size_t(4));
+    // The seams close as the cloth is drawn together (the app sews as a seam closes): tacked now,
+    // sewn during a drape of 0.8 s, which leaves one piece with four openings (the hem, the neck
+    // and two armholes) and the tunic down over the hips, where it hung before.
+    QVERIFY(with_session([](Session& s) { return s.garment(0).tacks.size(); }) > 20);
+    const double hem_before = cloth().min().y();
     run_dialog("&Drape...", [](QDialog& d) {
       qobject_cast<QInputDialog*>(&d)->setDoubleValue(0.8);
       d.accept();
     });
     QVERIFY(wait_until([&] { return !studio_->draping(); }, 120000));
+    QCOMPARE(with_session([](Session& s) { return s.garment(0).tacks.size(); }), std::size_t(0));
+    QCOMPARE(pieces(), std::size_t(1));
+    QCOMPARE(border_loop_count(), std::size_t(4));
+    QVERIFY2(cloth().min().y() < hem_before + 0.1,
+             qPrintable(QString("the hem rose from %1 to %2 m when sewn").arg(hem_before).arg(cloth().min().y())));
     QVERIFY(key("1"));
     shot("7_sewn");
 

@@ -52,7 +52,8 @@ class Garment {
 
   // Tacks: pairs of vertices held together (a zero-length spring in the solver) until they can be
   // merged. Sewing two separate border vertices tacks them: merging them alone would pinch the
-  // cloth at one vertex; once a neighbouring pair is sewn too, the two pairs close as a seam.
+  // cloth at one vertex; once a neighbouring pair is sewn too, the two pairs close as a seam. A
+  // seam that closes (tack_seam) is all tacks, which a session sews as they meet (close_tacks).
   // Topology edits keep them up to date (a merged or removed vertex drops its tacks).
   std::vector<std::pair<Vertex, Vertex>> tacks;
 

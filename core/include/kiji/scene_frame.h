@@ -37,6 +37,7 @@ struct GarmentFrame {
   std::shared_ptr<const Texture> texture;  // null: no texture (draw `color`); the same pointer while unchanged
   Vec3 color{0.8, 0.25, 0.22};
   Box3 bounds;
+  std::vector<std::uint32_t> tacks;  // 2 a tack (a seam closing), mesh vertices
 };
 
 struct SceneFrame {

@@ -187,10 +187,14 @@ class Session {
   void submit(Operation op);
   void load_state(std::string_view state);
   void simulate_step();
+  // Sews garment i's tacks that the step drew together (close_tacks), as a seam closes.
+  void sew_met_tacks(std::size_t i);
 
   std::shared_ptr<ToolRegistry> registry_;
   std::vector<Garment> garments_;
   std::vector<std::unique_ptr<Solver>> solvers_;
+  // Per garment: the mesh and the met pairs close_tacks last found nothing to sew in.
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> tacks_tried_;
   std::shared_ptr<const Body> body_;
   SolverParams solver_params_;
   double time_ = 0;

@@ -93,6 +93,19 @@ Vertex merge_vertices(Garment& g, Vertex keep, Vertex gone);
 // Afterwards no border is left along the seam.
 void stitch(Garment& g, const std::vector<Vertex>& a, const std::vector<Vertex>& b);
 
+// A seam sewn as it closes: the sides matched as stitch() matches them (refined by arc length), and
+// each pair tacked (Garment::tacks), so that the solver draws the two borders together over the
+// next steps instead of joining them where they are. A session sews the tacks as they meet
+// (close_tacks). Returns the pairs tacked. Refuses what stitch() refuses, changing nothing.
+std::vector<std::pair<Vertex, Vertex>> tack_seam(Garment& g, const std::vector<Vertex>& a,
+                                                 const std::vector<Vertex>& b);
+
+// Sews (stitch) every run of two or more tacks whose two vertices are within `within` of each other
+// and that follow one another along both borders; a met pair alone waits for a neighbour (merged
+// alone it would pinch the cloth), and a run the mesh cannot take stays tacked. Returns the number
+// of pairs sewn.
+std::size_t close_tacks(Garment& g, double within);
+
 // Adds every vertex and face of `other` to `g` as separate pieces (e.g. the panels of one garment),
 // keeping their properties; returns the index that `other`'s vertex 0 now has (vertex i of other
 // becomes first + i when other has no removed vertices).

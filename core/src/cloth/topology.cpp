@@ -12,8 +12,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <deque>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <queue>
 #include <set>
 #include <sstream>
@@ -380,7 +382,13 @@ Vertex merge_vertices(Garment& g, Vertex keep, Vertex gone) {
   return keep;
 }
 
-void stitch(Garment& g, const std::vector<Vertex>& a_in, const std::vector<Vertex>& b_in) {
+namespace {
+
+// The two sides of a seam as stitch() pairs them, in `s` (g's soup): b's piece turned to face the
+// way a's does where they are separate pieces, and (`refine_sides`) each side refined by arc length
+// where the other has a vertex, so that a[i] pairs with b[i]; else they are paired as given.
+void match_seam(Garment& g, Soup& s, const std::vector<Vertex>& a_in, const std::vector<Vertex>& b_in,
+                std::vector<Index>& a, std::vector<Index>& b, bool refine_sides = true) {
   const Mesh& m = g.mesh();
   if (a_in.size() < 2 || b_in.size() < 2)
     throw InputError("stitch: each side of a seam needs at least 2 vertices (one border edge)");
@@ -400,8 +408,8 @@ void stitch(Garment& g, const std::vector<Vertex>& a_in, const std::vector<Verte
         throw InputError("stitch: the two sides of a seam may share only their matching end points");
   }
 
-  Soup s = to_soup(g);
-  std::vector<Index> a(a_in.size()), b(b_in.size());
+  a.resize(a_in.size());
+  b.resize(b_in.size());
   for (std::size_t i = 0; i < a.size(); ++i) a[i] = a_in[i].idx();
   for (std::size_t i = 0; i < b.size(); ++i) b[i] = b_in[i].idx();
 
@@ -419,6 +427,10 @@ void stitch(Garment& g, const std::vector<Vertex>& a_in, const std::vector<Verte
     flip_piece(s, Index(fb));
   }
 
+  if (!refine_sides) {
+    if (a.size() != b.size()) throw TopologyError("stitch: the two sides are not paired vertex for vertex");
+    return;
+  }
   // Arc-length parameters of each side, then refine both to the union of their parameters.
   auto params_of = [&](const std::vector<Index>& p) {
     std::vector<double> t(p.size(), 0.0);
@@ -508,11 +520,115 @@ void stitch(Garment& g, const std::vector<Vertex>& a_in, const std::vector<Verte
   refine(b, tb, ta);
   if (a.size() != b.size())
     throw TopologyError("stitch: the two sides could not be matched vertex for vertex");
+}
+
+// Sews a seam: the sides matched (match_seam), then b[i] merged into a[i].
+void sew_seam(Garment& g, const std::vector<Vertex>& a_in, const std::vector<Vertex>& b_in, bool refine_sides) {
+  Soup s = to_soup(g);
+  std::vector<Index> a, b;
+  match_seam(g, s, a_in, b_in, a, b, refine_sides);
   // Pin state of the new seam vertices is unpinned; merge pairs: b[i] into a[i].
   for (std::size_t i = 0; i < a.size(); ++i)
     if (a[i] != b[i]) substitute(s, a[i], b[i]);
   check_manifold(s, "stitch");
   commit(g, s, "stitch");
+}
+
+}  // namespace
+
+void stitch(Garment& g, const std::vector<Vertex>& a, const std::vector<Vertex>& b) { sew_seam(g, a, b, true); }
+
+std::vector<std::pair<Vertex, Vertex>> tack_seam(Garment& g, const std::vector<Vertex>& a_in,
+                                                 const std::vector<Vertex>& b_in) {
+  Soup s = to_soup(g);
+  std::vector<Index> a, b;
+  match_seam(g, s, a_in, b_in, a, b);
+  commit(g, s, "tack_seam");
+  std::vector<std::pair<Vertex, Vertex>> pairs;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (a[i] != b[i]) pairs.emplace_back(Vertex(a[i]), Vertex(b[i]));
+  g.tacks.insert(g.tacks.end(), pairs.begin(), pairs.end());
+  return pairs;
+}
+
+std::size_t close_tacks(Garment& g, double within) {
+  std::size_t sewn = 0;
+  std::set<std::pair<Vertex, Vertex>> refused;
+  for (bool again = true; again;) {
+    again = false;
+    const Mesh& m = g.mesh();
+    auto border_neighbours = [&](Vertex p, Vertex q) {
+      const auto [h, found] = CGAL::halfedge(p, q, m);
+      return found && m.is_border(m.edge(h));
+    };
+    std::vector<std::pair<Vertex, Vertex>> met;
+    for (const auto& t : g.tacks)
+      if (!refused.count(t) && (g.position(t.first) - g.position(t.second)).norm() <= within) met.push_back(t);
+    std::vector<char> used(met.size(), 0);
+    // A met tack next to `t` along both borders (oriented as t), not yet in a run.
+    auto next_of = [&](const std::pair<Vertex, Vertex>& t) -> std::optional<std::pair<Vertex, Vertex>> {
+      for (std::size_t j = 0; j < met.size(); ++j) {
+        if (used[j]) continue;
+        for (int swap = 0; swap < 2; ++swap) {
+          const Vertex p = swap ? met[j].second : met[j].first, q = swap ? met[j].first : met[j].second;
+          if (border_neighbours(t.first, p) && border_neighbours(t.second, q)) {
+            used[j] = 1;
+            return std::make_pair(p, q);
+          }
+        }
+      }
+      return std::nullopt;
+    };
+    for (std::size_t i = 0; i < met.size() && !again; ++i) {
+      if (used[i]) continue;
+      used[i] = 1;
+      std::deque<std::pair<Vertex, Vertex>> run{met[i]};
+      for (auto n = next_of(run.back()); n; n = next_of(run.back())) run.push_back(*n);
+      for (auto n = next_of(run.front()); n; n = next_of(run.front())) run.push_front(*n);
+      // A run next to where the seam is already sewn (or began at a shared corner) closes from
+      // there: the vertex both its borders lead to is the seam's end, on both sides.
+      auto shared_neighbour = [&](const std::pair<Vertex, Vertex>& t, const std::pair<Vertex, Vertex>& inward) {
+        for (Halfedge h : CGAL::halfedges_around_target(m.halfedge(t.first), m)) {
+          const Vertex x = m.source(h);
+          if (x != inward.first && x != inward.second && m.is_border(m.edge(h)) && border_neighbours(t.second, x)) return x;
+        }
+        return Mesh::null_vertex();
+      };
+      const auto none = std::make_pair(Mesh::null_vertex(), Mesh::null_vertex());
+      if (const Vertex x = shared_neighbour(run.front(), run.size() > 1 ? run[1] : none); x != Mesh::null_vertex())
+        run.emplace_front(x, x);
+      if (const Vertex x = shared_neighbour(run.back(), run.size() > 1 ? run[run.size() - 2] : none); x != Mesh::null_vertex())
+        run.emplace_back(x, x);
+      if (run.size() < 2) {
+        // A pair alone would pinch the cloth, and waits for a neighbour; unless the two are next to
+        // each other on the border (a seam's last pair at a corner): that gap closes.
+        const auto [p, q] = run.front();
+        if (!border_neighbours(p, q)) continue;
+        try {
+          merge_vertices(g, p, q);
+          ++sewn;
+          again = true;
+        } catch (const Error&) {
+          refused.emplace(p, q);
+          refused.emplace(q, p);
+        }
+        continue;
+      }
+      std::vector<Vertex> a, b;
+      for (const auto& [p, q] : run) a.push_back(p), b.push_back(q);
+      try {
+        sew_seam(g, a, b, /*refine_sides=*/false);  // paired as tacked
+        for (const auto& [p, q] : run) sewn += p != q;
+        again = true;  // the mesh changed: look again from the start
+      } catch (const Error&) {
+        for (const auto& [p, q] : run) {  // they stay tacked, held together by the solver
+          refused.emplace(p, q);
+          refused.emplace(q, p);
+        }
+      }
+    }
+  }
+  return sewn;
 }
 
 Vertex append_garment(Garment& g, const Garment& other) {

@@ -94,6 +94,8 @@ std::shared_ptr<SceneFrame> SceneFrameBuilder::build(const Session& session, boo
     }
     const GarmentTopology& t = *cache.topology;
     out.name = g.name;
+    out.tacks.reserve(2 * g.tacks.size());
+    for (const auto& [a, b] : g.tacks) out.tacks.insert(out.tacks.end(), {std::uint32_t(a.idx()), std::uint32_t(b.idx())});
     out.topology = cache.topology;
     out.color = g.color;
     frame->vertices += t.vertex_count;

@@ -4,12 +4,14 @@
 #include "kiji/drape.h"
 #include "kiji/error.h"
 #include "kiji/pick.h"
+#include "kiji/topology.h"
 
 #include "base/byte_io.h"
 #include "session/stroke_context.h"
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <vector>
 
@@ -132,9 +134,42 @@ void Session::step(const void* owner) {
 void Session::simulate_step() {
   const double dt = 1.0 / frame_rate_;
   if (simulating_)
-    for (std::size_t i = 0; i < garments_.size(); ++i) solvers_[i]->step(garments_[i], dt);
+    for (std::size_t i = 0; i < garments_.size(); ++i) {
+      solvers_[i]->step(garments_[i], dt);
+      sew_met_tacks(i);
+    }
   time_ += dt;
   ++steps_;
+}
+
+void Session::sew_met_tacks(std::size_t i) {
+  Garment& g = garments_[i];
+  if (g.tacks.empty()) return;
+  // Met within three quarters of the border's spacing (at least twice the cloth's thickness): the
+  // cloth's own collision and the body keep some pairs a little apart, and the last step to sew
+  // them is then shorter than an edge.
+  double spacing = 0;
+  for (const auto& [a, b] : g.tacks) {
+    double shortest = std::numeric_limits<double>::infinity();
+    for (Halfedge h : CGAL::halfedges_around_target(g.mesh().halfedge(a), g.mesh()))
+      if (g.mesh().is_border(g.mesh().edge(h))) shortest = std::min(shortest, g.rest_length(g.mesh().edge(h)));
+    if (std::isfinite(shortest)) spacing += shortest / double(g.tacks.size());
+  }
+  const double within = std::max(2 * g.material().thickness, 0.75 * spacing);
+  // The pairs that have met, as a key: the same pairs on the same mesh, found nothing to sew before,
+  // would find nothing again (what is sewn depends on which pairs met and on the mesh alone).
+  std::size_t met = 0;
+  std::uint64_t key = 1469598103934665603ull;
+  for (const auto& [a, b] : g.tacks)
+    if ((g.position(a) - g.position(b)).norm() <= within) {
+      ++met;
+      for (std::uint64_t x : {std::uint64_t(a.idx()), std::uint64_t(b.idx())}) key = (key ^ x) * 1099511628211ull;
+    }
+  if (met == 0) return;
+  if (tacks_tried_.size() <= i) tacks_tried_.resize(i + 1);
+  const std::pair<std::uint64_t, std::uint64_t> tried{g.topology_version(), key};
+  if (tacks_tried_[i] == tried) return;
+  if (close_tacks(g, within) == 0) tacks_tried_[i] = tried;
 }
 
 void Session::drape(double seconds, const std::function<bool(double)>& progress, bool place, double clearance) {

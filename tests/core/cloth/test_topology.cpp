@@ -259,6 +259,54 @@ TEST(Stitch, FlipsAPanelWithTheOppositeOrientation) {
   EXPECT_EQ(count_border_vertices(g), 4u * 5u + 4u * 5u - 2u * 5u);
 }
 
+// A seam sewn as it closes: tack_seam pairs the sides as stitch would (refining the coarser side)
+// and changes no face; close_tacks sews the pairs that have met, from the end where they met along
+// the seam, and leaves the rest tacked; at the end the seam is the one stitch makes at once.
+TEST(Stitch, ATackedSeamIsSewnRunByRunAsItsPairsMeet) {
+  Garment g = make_rectangle(0.5, 1.0, 6, 11);  // seam side x = 0.5 has 11 vertices
+  Garment b = make_rectangle(0.5, 1.0, 4, 7);   // its side x = 0 has 7
+  b.transform(Eigen::Affine3d(Eigen::Translation3d(0.8, 0, 0)));
+  append_garment(g, b);
+  std::vector<Vertex> a_side, b_side;
+  for (int j = 0; j < 11; ++j) a_side.push_back(at(g, 0.5, 0.1 * j));
+  for (int j = 0; j < 7; ++j) b_side.push_back(at(g, 0.8, j / 6.0));
+  Garment at_once = g;
+  stitch(at_once, a_side, b_side);
+
+  const std::size_t faces = g.mesh().number_of_faces();
+  const auto pairs = tack_seam(g, a_side, b_side);
+  ASSERT_EQ(pairs.size(), 15u);  // 11 and 7 refined to the union of their shares along the side: 15
+  EXPECT_EQ(g.tacks.size(), 15u);
+  EXPECT_EQ(g.count_pieces(), 2u);
+  EXPECT_EQ(g.mesh().number_of_faces(), faces + 4 + 8);  // refined, not joined
+  EXPECT_EQ(close_tacks(g, 0.01), 0u);                   // nothing has met: 30 cm apart
+
+  // The pairs near y = 0 meet first (the solver draws each pair together): a run of them is sewn.
+  auto meet = [&](double below) {
+    for (const auto& [p, q] : g.tacks)
+      if (g.position(p).y() < below) g.set_position(q, g.position(p));
+  };
+  meet(0.35);
+  const std::size_t sewn = close_tacks(g, 0.01);
+  EXPECT_GE(sewn, 4u);
+  EXPECT_TRUE(g.is_valid());
+  EXPECT_EQ(g.count_pieces(), 1u);
+  EXPECT_EQ(g.tacks.size(), 15u - sewn);
+  // A single pair met alone, away from the seam sewn so far, waits: it would pinch the cloth.
+  for (const auto& [p, q] : g.tacks)
+    if (g.position(p).y() > 0.95) g.set_position(q, g.position(p));
+  EXPECT_EQ(close_tacks(g, 0.01), 0u);
+  // The rest meet: the seam closes to the end, as stitch() would have sewn it at once.
+  meet(2.0);
+  EXPECT_EQ(close_tacks(g, 0.01), 15u - sewn);
+  EXPECT_TRUE(g.tacks.empty());
+  EXPECT_TRUE(g.is_valid());
+  EXPECT_EQ(g.count_pieces(), 1u);
+  EXPECT_EQ(border_loops(g).size(), 1u) << "no border left along the seam";
+  EXPECT_EQ(g.mesh().number_of_vertices(), at_once.mesh().number_of_vertices());
+  EXPECT_EQ(g.mesh().number_of_faces(), at_once.mesh().number_of_faces());
+}
+
 TEST(Stitch, RefusesVerticesThatAreNotABorderPath) {
   Garment g = make_rectangle(1.0, 1.0, 5, 5);
   EXPECT_THROW(stitch(g, {at(g, 0.25, 0.25), at(g, 0.5, 0.25)}, {at(g, 0, 0), at(g, 0.25, 0)}), InputError);

@@ -535,23 +535,36 @@ TEST(Sew, ARectangleSewnEdgeToEdgeBecomesATube) {
   expect_same(state_of(s.garment(0)), before);
 }
 
-TEST(Sew, TwoPanelsSewnAlongASeamHaveNoBorderAlongIt) {
-  Session s(plugins());
-  Garment a = make_rectangle(0.5, 1.0, 6, 11);
-  Garment b = make_rectangle(0.5, 1.0, 6, 11);
+namespace {
+
+// Two 0.5 x 1 m panels 10 cm apart side by side (nx x ny vertices each), as one paused garment.
+void add_two_panels(Session& s, int nx, int ny) {
+  Garment a = make_rectangle(0.5, 1.0, nx, ny);
+  Garment b = make_rectangle(0.5, 1.0, nx, ny);
   b.transform(Eigen::Affine3d(Eigen::Translation3d(0.6, 0, 0)));
   append_garment(a, b);
   s.add_garment(std::move(a));
   s.set_simulating(false);
-  // Trace the right border of the first panel with the primary button, then the left border of
-  // the second with the secondary.
-  Stroke stroke = line(Vec3(0.5, 0.0, 0.005), Vec3(0.5, 1.0, 0.005), 10);
-  Stroke second = line(Vec3(0.6, 0.0, 0.005), Vec3(0.6, 1.0, 0.005), 10, stroke.back().time, 1.0 / 60,
+}
+
+// A seam stroke between them: the right border of the first panel traced with the primary button,
+// then the left border of the second with the secondary, `n` segments each.
+Stroke seam_between_panels(int n) {
+  Stroke stroke = line(Vec3(0.5, 0.0, 0.005), Vec3(0.5, 1.0, 0.005), n);
+  Stroke second = line(Vec3(0.6, 0.0, 0.005), Vec3(0.6, 1.0, 0.005), n, stroke.back().time, 1.0 / 60,
                        kButtonSecondary);
   stroke.back().phase = Phase::Move;
   second.front().phase = Phase::Move;
   stroke.insert(stroke.end(), second.begin(), second.end());
-  run_and_check_undo(s, "sew", s.params_for("sew", {{"mode", std::string("seam")}}), stroke);
+  return stroke;
+}
+
+}  // namespace
+
+TEST(Sew, TwoPanelsSewnAlongASeamHaveNoBorderAlongIt) {
+  Session s(plugins());
+  add_two_panels(s, 6, 11);
+  run_and_check_undo(s, "sew", s.params_for("sew", {{"mode", std::string("seam")}}), seam_between_panels(10));
   const Garment& g = s.garment(0);
   EXPECT_TRUE(g.is_valid());
   EXPECT_EQ(g.count_pieces(), 1u);
@@ -566,22 +579,12 @@ TEST(Sew, TwoPanelsSewnAlongASeamHaveNoBorderAlongIt) {
 // is paused, and running it draws the panels together and sews the seam as the pairs meet.
 TEST(Sew, ASeamThatClosesIsTackedThenSewnAsTheSimulationDrawsItTogether) {
   Session s(plugins());
-  Garment a = make_rectangle(0.5, 1.0, 21, 41);  // 2.5 cm apart
-  Garment b = make_rectangle(0.5, 1.0, 21, 41);
-  b.transform(Eigen::Affine3d(Eigen::Translation3d(0.6, 0, 0)));
-  append_garment(a, b);
-  s.add_garment(std::move(a));
+  add_two_panels(s, 21, 41);  // 2.5 cm apart
   SolverParams weightless = s.solver_params();
   weightless.gravity = Vec3::Zero();
   s.set_solver_params(weightless);
-  s.set_simulating(false);
-  Stroke stroke = line(Vec3(0.5, 0.0, 0.005), Vec3(0.5, 1.0, 0.005), 40);
-  Stroke second = line(Vec3(0.6, 0.0, 0.005), Vec3(0.6, 1.0, 0.005), 40, stroke.back().time, 1.0 / 60,
-                       kButtonSecondary);
-  stroke.back().phase = Phase::Move;
-  second.front().phase = Phase::Move;
-  stroke.insert(stroke.end(), second.begin(), second.end());
-  s.run("sew", s.params_for("sew", {{"mode", std::string("seam")}, {"join", std::string("closing")}}), stroke);
+  s.run("sew", s.params_for("sew", {{"mode", std::string("seam")}, {"join", std::string("closing")}}),
+        seam_between_panels(40));
   EXPECT_EQ(s.garment(0).tacks.size(), 41u);
   EXPECT_EQ(s.garment(0).count_pieces(), 2u);
   for (int i = 0; i < 30; ++i) s.step();

@@ -126,18 +126,26 @@ def test_sew_a_rectangle_sewn_edge_to_edge_becomes_a_tube():
     assert g.is_valid()
 
 
-def test_a_seam_that_closes_is_tacked_and_sewn_as_the_session_steps():
-    a = kiji.rectangle(0.5, 1.0, nx=21, ny=41)
-    b = kiji.rectangle(0.5, 1.0, nx=21, ny=41)
+def two_panels(nx, ny):
+    """A paused session with two 0.5 x 1 m panels 10 cm apart as one garment, and a seam stroke
+    between them (the first's right border, then the second's left) with its buttons."""
+    a = kiji.rectangle(0.5, 1.0, nx=nx, ny=ny)
+    b = kiji.rectangle(0.5, 1.0, nx=nx, ny=ny)
     b.translate((0.6, 0, 0))
+    # One garment of two panels, from the arrays of both.
     faces = np.vstack([a.faces, b.faces + a.vertex_count])
     both = kiji.Garment(np.vstack([a.positions, b.positions]), faces, uvs=np.concatenate([a.uvs, b.uvs]))
     s = kiji.Session()
     g = s.add_garment(both)
     s.simulating = False
-    first = line((0.5, 0, 0.005), (0.5, 1.0, 0.005), 40)
-    second = line((0.6, 0, 0.005), (0.6, 1.0, 0.005), 40)
-    s.sew(np.vstack([first, second]), buttons=[1] * 41 + [2] * 41, mode="seam", join="closing")
+    first = line((0.5, 0, 0.005), (0.5, 1.0, 0.005), ny - 1)
+    second = line((0.6, 0, 0.005), (0.6, 1.0, 0.005), ny - 1)
+    return s, g, np.vstack([first, second]), [1] * ny + [2] * ny
+
+
+def test_a_seam_that_closes_is_tacked_and_sewn_as_the_session_steps():
+    s, g, stroke, buttons = two_panels(21, 41)
+    s.sew(stroke, buttons=buttons, mode="seam", join="closing")
     assert len(g.tacks) == 41 and g.piece_count == 2, "tacked, not joined"
     s.step(30)
     assert len(g.tacks) == 41, "a paused session leaves the seam tacked"
@@ -164,18 +172,8 @@ def test_tack_seam_and_close_tacks_sew_the_pairs_that_met():
 
 
 def test_sew_two_panels_along_a_seam_leave_no_border_along_it():
-    a = kiji.rectangle(0.5, 1.0, nx=6, ny=11)
-    b = kiji.rectangle(0.5, 1.0, nx=6, ny=11)
-    b.translate((0.6, 0, 0))
-    # One garment of two panels, from the arrays of both.
-    faces = np.vstack([a.faces, b.faces + a.vertex_count])
-    both = kiji.Garment(np.vstack([a.positions, b.positions]), faces, uvs=np.concatenate([a.uvs, b.uvs]))
-    s = kiji.Session()
-    g = s.add_garment(both)
-    s.simulating = False
-    first = line((0.5, 0, 0.005), (0.5, 1.0, 0.005), 10)
-    second = line((0.6, 0, 0.005), (0.6, 1.0, 0.005), 10)
-    run_and_check_undo(s, g, "sew", np.vstack([first, second]), buttons=[1] * 11 + [2] * 11, mode="seam")
+    s, g, stroke, buttons = two_panels(6, 11)
+    run_and_check_undo(s, g, "sew", stroke, buttons=buttons, mode="seam")
     assert g.is_valid()
     assert g.piece_count == 1
     assert len(g.border_loops()) == 1

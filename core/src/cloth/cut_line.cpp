@@ -221,6 +221,35 @@ class Walker {
         }
       }
       if (best_face < 0) return walk(c, end, out);
+      if (best_face != c.face) {
+        // Into a face next to the cursor's, through the edge or the corner it sits on: a crossing
+        // there too, so that each piece of the line lies across the face the one before entered.
+        const auto& f = s_.faces[c.face];
+        int k = -1;
+        double t = 0;
+        for (int e = 0; e < 3 && k < 0; ++e)
+          if (adj_.other(edge_key(f[(e + 1) % 3], f[(e + 2) % 3]), c.face) == best_face) {
+            const Vec3 a = pos(f[(e + 1) % 3]), b = pos(f[(e + 2) % 3]);
+            k = e;
+            t = std::clamp((c.point - a).dot(b - a) / std::max((b - a).squaredNorm(), 1e-300), 0.0, 1.0);
+          }
+        if (k < 0) {  // through a corner: the crossing is at that vertex
+          int nearest = 0;
+          for (int e = 1; e < 3; ++e)
+            if ((pos(f[e]) - c.point).squaredNorm() < (pos(f[nearest]) - c.point).squaredNorm()) nearest = e;
+          k = (nearest + 2) % 3;  // the edge from f[nearest] to the next corner
+          t = 0;
+        }
+        Crossing x;
+        x.a = f[(k + 1) % 3];
+        x.b = f[(k + 2) % 3];
+        x.t = t;
+        if (x.a > x.b) std::swap(x.a, x.b), x.t = 1.0 - x.t;
+        x.point = c.point;
+        x.from = c.face;
+        x.to = best_face;
+        out.push_back(x);
+      }
       c.face = best_face;
       c.entered_opposite = best_section.edges[1 - best_exit];
     }

@@ -248,8 +248,7 @@ TEST(CutLine, RefusesBadInputAndChangesNothing) {
 }
 
 // Cloth over a steep dome, a loop drawn on its slopes from straight above (the mouse's view rays
-// given): the loop's inside is cut out along the drawn loop. (The sheet the rays sweep leaves gaps
-// between its crossings on these slopes; cut_line walks such a line over the surface instead.)
+// given): the loop's inside is cut out along the drawn loop.
 TEST(CutLine, ALoopDrawnFromAboveOnASteepDomeCutsOutItsInside) {
   const double spacing = 0.02;
   Garment g = make_rectangle_spaced(0.6, 0.6, spacing);
@@ -279,4 +278,34 @@ TEST(CutLine, ALoopDrawnFromAboveOnASteepDomeCutsOutItsInside) {
   for (const auto& loop : inner_loops(g, 0.6, 0.6))
     for (Vertex v : loop) worst = std::max(worst, distance_to_polyline(g.position(v), drawn));
   EXPECT_LT(worst, 0.25 * spacing);
+}
+
+// The same dome, a stroke drawn straight across it from above, border to border: the line goes up
+// one steep side and down the other under the stroke and parts the cloth in two (no closed-line
+// fallback applies to an open line: this is the sheet alone).
+TEST(CutLine, AStrokeDrawnFromAboveAcrossASteepDomePartsTheCloth) {
+  for (const double spacing : {0.01, 0.015, 0.02}) {
+    Garment g = make_rectangle_spaced(0.6, 0.6, spacing);
+    const Vec2 centre(0.3, 0.3);
+    auto height = [&](double x, double y) {
+      const double r = std::hypot(x - centre.x(), y - centre.y()) / 0.07;
+      return 0.15 * std::exp(-r * r * r * r);
+    };
+    for (Vertex v : g.mesh().vertices()) {
+      const Vec3 p = g.position(v);
+      g.set_position(v, Vec3(p.x(), p.y(), height(p.x(), p.y())));
+    }
+    KnifeLine line;
+    for (int i = 0; i <= 100; ++i) {
+      const double x = 0.05 + 0.5 * i / 100.0, y = 0.3 + 0.037 * spacing + 0.02 * (x - 0.3);
+      line.points.emplace_back(x, y, height(x, y));
+      line.sweeps.emplace_back(0, 0, -1);
+    }
+    line.from = Vec3(-0.1, line.points.front().y(), 0);
+    line.to = Vec3(0.7, line.points.back().y(), 0);
+    line.start = face_at(g, line.points.front());
+    cut_line(g, line);
+    EXPECT_TRUE(g.is_valid()) << spacing;
+    EXPECT_EQ(g.count_pieces(), 2u) << "at a spacing of " << spacing << " m";
+  }
 }

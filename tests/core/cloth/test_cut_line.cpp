@@ -81,6 +81,22 @@ std::vector<Vec3> circle(const Vec3& centre, double rx, double ry, int n, double
   return out;
 }
 
+// A steep dome 15 cm high and 14 cm across in the middle of a 0.6 m square: its height at (x, y).
+double dome_height(double x, double y) {
+  const double r = std::hypot(x - 0.3, y - 0.3) / 0.07;
+  return 0.15 * std::exp(-r * r * r * r);
+}
+
+// The square of cloth laid over that dome.
+Garment cloth_over_dome(double spacing) {
+  Garment g = make_rectangle_spaced(0.6, 0.6, spacing);
+  for (Vertex v : g.mesh().vertices()) {
+    const Vec3 p = g.position(v);
+    g.set_position(v, Vec3(p.x(), p.y(), dome_height(p.x(), p.y())));
+  }
+  return g;
+}
+
 }  // namespace
 
 TEST(CutLine, AClosedLoopCutsOutItsInsideAlongTheDrawnCurve) {
@@ -251,19 +267,10 @@ TEST(CutLine, RefusesBadInputAndChangesNothing) {
 // given): the loop's inside is cut out along the drawn loop.
 TEST(CutLine, ALoopDrawnFromAboveOnASteepDomeCutsOutItsInside) {
   const double spacing = 0.02;
-  Garment g = make_rectangle_spaced(0.6, 0.6, spacing);
-  const Vec2 centre(0.3, 0.3);
-  auto height = [&](double x, double y) {
-    const double r = std::hypot(x - centre.x(), y - centre.y()) / 0.07;
-    return 0.15 * std::exp(-r * r * r * r);
-  };
-  for (Vertex v : g.mesh().vertices()) {
-    const Vec3 p = g.position(v);
-    g.set_position(v, Vec3(p.x(), p.y(), height(p.x(), p.y())));
-  }
+  Garment g = cloth_over_dome(spacing);
   KnifeLine line;
-  for (const Vec3& p : circle(Vec3(centre.x(), centre.y(), 0), 0.075, 0.06, 120)) {
-    line.points.emplace_back(p.x(), p.y(), height(p.x(), p.y()));
+  for (const Vec3& p : circle(Vec3(0.3, 0.3, 0), 0.075, 0.06, 120)) {
+    line.points.emplace_back(p.x(), p.y(), dome_height(p.x(), p.y()));
     line.sweeps.emplace_back(0, 0, -1);
   }
   line.start = face_at(g, line.points.front());
@@ -285,20 +292,11 @@ TEST(CutLine, ALoopDrawnFromAboveOnASteepDomeCutsOutItsInside) {
 // fallback applies to an open line: this is the sheet alone).
 TEST(CutLine, AStrokeDrawnFromAboveAcrossASteepDomePartsTheCloth) {
   for (const double spacing : {0.01, 0.015, 0.02}) {
-    Garment g = make_rectangle_spaced(0.6, 0.6, spacing);
-    const Vec2 centre(0.3, 0.3);
-    auto height = [&](double x, double y) {
-      const double r = std::hypot(x - centre.x(), y - centre.y()) / 0.07;
-      return 0.15 * std::exp(-r * r * r * r);
-    };
-    for (Vertex v : g.mesh().vertices()) {
-      const Vec3 p = g.position(v);
-      g.set_position(v, Vec3(p.x(), p.y(), height(p.x(), p.y())));
-    }
+    Garment g = cloth_over_dome(spacing);
     KnifeLine line;
     for (int i = 0; i <= 100; ++i) {
       const double x = 0.05 + 0.5 * i / 100.0, y = 0.3 + 0.037 * spacing + 0.02 * (x - 0.3);
-      line.points.emplace_back(x, y, height(x, y));
+      line.points.emplace_back(x, y, dome_height(x, y));
       line.sweeps.emplace_back(0, 0, -1);
     }
     line.from = Vec3(-0.1, line.points.front().y(), 0);

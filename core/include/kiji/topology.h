@@ -100,10 +100,11 @@ void stitch(Garment& g, const std::vector<Vertex>& a, const std::vector<Vertex>&
 std::vector<std::pair<Vertex, Vertex>> tack_seam(Garment& g, const std::vector<Vertex>& a,
                                                  const std::vector<Vertex>& b);
 
-// Sews (stitch) every run of two or more tacks whose two vertices are within `within` of each other
-// and that follow one another along both borders; a met pair alone waits for a neighbour (merged
-// alone it would pinch the cloth), and a run the mesh cannot take stays tacked. Returns the number
-// of pairs sewn.
+// Sews every run of tacks whose two vertices are within `within` of each other and that follow one
+// another along both borders, merging the pairs as tacked; a run goes on to the vertex both its
+// borders lead to (where the seam is already sewn, or a shared corner). A met pair alone waits for a
+// neighbour (merged alone it would pinch the cloth), unless its two vertices are border neighbours;
+// a run the mesh cannot take stays tacked. Returns the number of pairs sewn.
 std::size_t close_tacks(Garment& g, double within);
 
 // Adds every vertex and face of `other` to `g` as separate pieces (e.g. the panels of one garment),

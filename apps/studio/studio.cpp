@@ -383,6 +383,7 @@ bool Studio::sew_seam(int garment, const std::vector<std::uint32_t>& first, cons
     return false;
   }
   std::size_t pairs = 0;
+  bool closing = false;
   try {
     loop_->call([&](Session& s) {
       if (garment < 0 || std::size_t(garment) >= s.garment_count())
@@ -413,11 +414,14 @@ bool Studio::sew_seam(int garment, const std::vector<std::uint32_t>& first, cons
       }
       s.run("sew", params, stroke);
       pairs = std::max(first.size(), second.size());
+      closing = params.get_string("join") == "closing";
     });
   } catch (const std::exception& e) {
     return fail("The seam was not sewn (the garment is as it was)", e);
   }
-  emit message(QString("Sewn: a seam of %1 pairs (Ctrl+Z takes it out)").arg(pairs), false);
+  emit message(closing ? QString("Tacked: a seam of %1 pairs, sewn as the simulation draws it shut (Ctrl+Z takes it out)").arg(pairs)
+                       : QString("Sewn: a seam of %1 pairs (Ctrl+Z takes it out)").arg(pairs),
+               false);
   return true;
 }
 

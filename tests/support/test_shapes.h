@@ -3,8 +3,11 @@
 
 #include "kiji/body.h"
 
+#include <array>
+#include <cmath>
 #include <map>
 #include <utility>
+#include <vector>
 
 namespace kiji::test {
 
@@ -51,6 +54,29 @@ inline Body make_sphere(double radius, const Vec3& centre, int levels = 3) {
   }
   for (auto& p : v) p = centre + radius * p;
   return Body::from_triangles(std::move(v), std::move(f), "sphere");
+}
+
+// A slab 3 m square and 0.2 m thick whose top face passes through the origin, tilted by `degrees`
+// about z: its top runs downhill towards -x (for positive degrees).
+inline Body make_slope(double degrees) {
+  const double a = degrees * M_PI / 180, c = std::cos(a), s = std::sin(a);
+  std::vector<Vec3> v;
+  for (double x : {-1.5, 1.5})
+    for (double y : {-0.2, 0.0})
+      for (double z : {-1.5, 1.5}) v.emplace_back(c * x - s * y, s * x + c * y, z);
+  // Corner index 4 ix + 2 iy + iz; each side as two triangles, wound outwards.
+  std::vector<std::array<int, 3>> f;
+  for (const std::array<int, 4>& q : {std::array<int, 4>{0, 1, 3, 2}, {4, 6, 7, 5}, {0, 4, 5, 1}, {2, 3, 7, 6},
+                                      {0, 2, 6, 4}, {1, 5, 7, 3}}) {
+    f.push_back({q[0], q[1], q[2]});
+    f.push_back({q[0], q[2], q[3]});
+  }
+  const Vec3 middle(-s * -0.1, c * -0.1, 0);
+  for (auto& tri : f) {
+    const Vec3 n = (v[tri[1]] - v[tri[0]]).cross(v[tri[2]] - v[tri[0]]);
+    if (n.dot(v[tri[0]] + v[tri[1]] + v[tri[2]] - 3 * middle) < 0) std::swap(tri[1], tri[2]);
+  }
+  return Body::from_triangles(std::move(v), std::move(f), "slope");
 }
 
 }  // namespace kiji::test

@@ -173,6 +173,44 @@ TEST(Xpbd, ClothDroppedOnASphereRestsOnItWithoutPenetrating) {
     ASSERT_GE((g.position(v) - centre).norm(), R * 0.994 - 1e-9) << "vertex " << v.idx() << " is inside";
 }
 
+namespace {
+// How far a 0.3 m square of cotton laid on a slope of `degrees` slides down it in 1.5 s at the
+// session's settings (metres along the slope).
+double slide_down(double degrees) {
+  const Body slope = test::make_slope(degrees);
+  Garment g = make_rectangle_spaced(0.3, 0.3, 0.01, Material::preset("cotton"));
+  const double a = degrees * M_PI / 180, gap = g.material().thickness;
+  const Vec3 along(std::cos(a), std::sin(a), 0), normal(-std::sin(a), std::cos(a), 0);
+  for (Vertex v : g.mesh().vertices()) {
+    const Vec3 q = g.position(v);
+    g.set_position(v, (q.x() - 0.15) * along + gap * normal + Vec3(0, 0, q.y() - 0.15));
+  }
+  auto centre = [&] {
+    Vec3 c = Vec3::Zero();
+    for (Vertex v : g.mesh().vertices()) c += g.position(v);
+    return Vec3(c / double(g.mesh().number_of_vertices()));
+  };
+  const Vec3 before = centre();
+  SolverParams params;
+  params.floor = false;
+  Solver solver(params);
+  solver.set_body(&slope);
+  run(solver, g, 1.5);
+  return -(centre() - before).dot(along);
+}
+}  // namespace
+
+// Friction between cloth and body is Coulomb's: cotton (0.4, a friction angle of 21.8 degrees)
+// stays on a slope of 18 degrees and slides down one of 30 degrees, no further than a block would.
+TEST(Xpbd, ClothStaysOnASlopeGentlerThanItsFrictionAngleAndSlidesDownASteeperOne) {
+  ASSERT_EQ(Material::preset("cotton").friction, 0.4);
+  EXPECT_LT(std::abs(slide_down(18)), 0.002);
+  const double a = 30 * M_PI / 180, coulomb = 0.5 * 9.81 * (std::sin(a) - 0.4 * std::cos(a)) * 1.5 * 1.5;
+  const double slid = slide_down(30);
+  EXPECT_GT(slid, 0.6 * coulomb) << "a block slides " << coulomb << " m";
+  EXPECT_LT(slid, 1.05 * coulomb) << "a block slides " << coulomb << " m";
+}
+
 TEST(Xpbd, ClothThrownFastAtTheBodyDoesNotTunnel) {
   // 5 m/s (a fast hand), 10 m/s and 30 m/s (a flick of the pen: half a metre a step) against a
   // sphere, no gravity: the cloth stops on the near side. Beyond 3 m/s a vertex moves further than

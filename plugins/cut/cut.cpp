@@ -27,13 +27,19 @@ class CutTool : public Tool {
                                "'vertex' splits the vertex where the stroke begins, towards where it goes."),
              ParamSpec::real("close", 0.03, 0.0, 0.5, "m", "Close within",
                              "A line that ends this near where it began is closed, and what it encloses is cut "
-                             "out (0: never closed).")}};
+                             "out (0: never closed)."),
+             ParamSpec::choice("follow", "surface", {"surface", "pattern"}, "Follow",
+                               "Mode 'line', between two points of the stroke: 'surface' follows the cloth as it "
+                               "lies (the layer the stroke is on, under folds); 'pattern' goes straight in the flat "
+                               "pattern between the cloth points the stroke touched, across folds and wrinkles (a "
+                               "script's cut through points it chose on the cloth).")}};
   }
 
   Feedback begin(ToolContext& context, const ParamSet& params, const ToolEvent& event) override {
     const std::string mode = params.get_string("mode");
     mode_ = mode == "vertex" ? Mode::Vertex : mode == "line" ? Mode::Line : Mode::Edges;
     close_ = params.get_float("close");
+    follow_pattern_ = params.get_string("follow") == "pattern";
     points_.clear();
     marks_.clear();
     started_off_cloth_ = !event.hit.hit;
@@ -102,12 +108,22 @@ class CutTool : public Tool {
     // Drawn in a view (every point with a ray), the line is what the stroke covers as seen.
     if (std::all_of(marks_.begin(), marks_.end(), [](const Mark& m) { return m.ray.squaredNorm() > 0; }))
       for (const Mark& m : marks_) line.sweeps.push_back(m.ray.normalized());
+    // Along the pattern: where each point lies on the cloth, while the faces are those it was drawn on.
+    if (follow_pattern_ && !started_off_cloth_ && !ended_off_cloth &&
+        g.topology_version() == topology_at_begin_) {
+      line.sweeps.clear();
+      for (const Mark& m : marks_) {
+        line.faces.push_back(m.face);
+        line.weights.push_back(m.weights);
+      }
+    }
     line.closed = !started_off_cloth_ && !ended_off_cloth && knife_line_closes(line.points, close_);
     // The stroke's return to its start is the closing piece of the line, which the knife draws.
     if (line.closed)
       while (line.points.size() > 3 && (line.points.back() - line.points.front()).norm() <= 0.5 * close_) {
         line.points.pop_back();
         if (!line.sweeps.empty()) line.sweeps.pop_back();
+        if (!line.faces.empty()) line.faces.pop_back(), line.weights.pop_back();
       }
     if (line.points.size() < 2 && !line.from && !line.to) return;  // a tap: nothing drawn to cut
     cut_line(g, line);
@@ -178,6 +194,7 @@ class CutTool : public Tool {
   enum class Mode { Line, Edges, Vertex };
   Mode mode_ = Mode::Line;
   double close_ = 0.03;
+  bool follow_pattern_ = false;
   std::uint64_t topology_at_begin_ = 0;
   std::vector<Mark> marks_;  // the line mode's points, as drawn
   bool started_off_cloth_ = false;

@@ -3,6 +3,7 @@ import numpy as np
 import pytest
 
 import kiji
+from kiji.geometry import point_at_uv
 from conftest import flat_session, line, nearest_row, run_and_check_undo
 
 
@@ -91,6 +92,39 @@ def test_cut_a_stroke_across_a_rectangle_makes_two_pieces_along_its_line():
     inner = [v for loop in g.border_loops() for v in g.positions[np.array(loop)]
              if 0.45 < v[1] < 0.6 and 1e-9 < v[0] < 1 - 1e-9]
     assert len(inner) >= 40 and all(abs(v[1] - 0.52) < 0.25 * 0.05 for v in inner)
+
+
+def _pleated_cut(follow):
+    """A 0.5 x 0.4 m cloth with a pleat (on to x = 0.2 m, back under itself to 0.15, on again: three
+    layers 4 mm apart), cut along an ellipse of its pattern through the cloth points on it; returns
+    the garment and how far the opening's border lies from that ellipse (metres of pattern)."""
+    cloth = kiji.rectangle(0.5, 0.4, spacing=0.01)
+    p = cloth.positions.copy()
+    x = p[:, 0].copy()
+    p[:, 0] = np.where(x < 0.2, x, np.where(x < 0.25, 0.4 - x, x - 0.1))
+    p[:, 2] = np.where(x < 0.2, 0.0, np.where(x < 0.25, 0.004, 0.008))
+    cloth.positions = p
+    s = kiji.Session()
+    s.solver_params = kiji.SolverParams(gravity=(0, 0, 0))
+    s.simulating = False
+    g = s.add_garment(cloth)
+    a = np.linspace(0, 2 * np.pi, 49)
+    ellipse = np.c_[0.22 + 0.14 * np.cos(a), 0.2 + 0.1 * np.sin(a)]
+    points, _ = point_at_uv(g, ellipse / g.pattern_scale)
+    s.cut(points, follow=follow)
+    uv = np.zeros((g.vertex_count, 2))
+    uv[g.faces.ravel()] = g.uvs.reshape(-1, 2) * g.pattern_scale
+    border = np.array([v for loop in g.border_loops() for v in loop])
+    r = np.hypot((uv[border, 0] - 0.22) / 0.14, (uv[border, 1] - 0.2) / 0.1)
+    return g, np.abs(r[r < 1.5] - 1).max() * 0.1
+
+
+def test_cut_along_the_pattern_crosses_a_pleat_a_walk_keeps_to_its_layer():
+    g, off = _pleated_cut("pattern")
+    assert g.is_valid() and g.piece_count == 2
+    assert off < 0.25 * 0.01, "the opening is the ellipse drawn on the pattern"
+    g, off = _pleated_cut("surface")
+    assert off > 0.01, "walked over the surface, the line keeps to the bottom layer under the pleat"
 
 
 def test_cut_edges_mode_of_earlier_builds_keeps_every_face():

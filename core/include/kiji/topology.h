@@ -47,6 +47,12 @@ struct KnifeLine {
   // under the stroke as seen, over folds and slopes a walk towards the next point stops on. A
   // closed line that the sheet does not cut out is walked instead.
   std::vector<Vec3> sweeps;
+  // For a line through points known on the cloth (a script's cut through points it chose): each
+  // point's face and its corners' weights (halfedge order from halfedge(face)). Between two points
+  // the line then goes straight in the flat pattern, across folds and wrinkles that a walk over the
+  // surface stops at. Empty: the line is walked over the surface.
+  std::vector<Face> faces;
+  std::vector<Vec3> weights;
 };
 
 struct KnifeCut {

@@ -90,6 +90,15 @@ class Walker {
  public:
   Walker(const Soup& s, const Adjacency& adj) : s_(s), adj_(adj) {}
 
+  // Walks in the flat pattern from now on: faces at their uv, the cursor's point in uv (z = 0). The
+  // crossings' points stay on the surface.
+  void in_pattern() { pattern_ = true; }
+  Vec3 corner(int face, int k) const {
+    if (!pattern_) return pos(s_.faces[face][k]);
+    const Vec2& uv = s_.uvs[face][k];
+    return Vec3(uv.x(), uv.y(), 0);
+  }
+
   // Walks from `c` towards `target` over the surface, appending the edges crossed, until the point
   // of the face under the target is reached, the surface turns back (a fold's crease: the line
   // stays on its layer), or the border is met. Returns false at the border.
@@ -99,8 +108,7 @@ class Walker {
     double best_distance = (c.point - target).norm();
     int stalled = 0;
     for (std::size_t guard = 0; guard < 4 * s_.faces.size() + 16; ++guard) {
-      const auto& f = s_.faces[c.face];
-      const Vec3 p[3] = {pos(f[0]), pos(f[1]), pos(f[2])};
+      const Vec3 p[3] = {corner(c.face, 0), corner(c.face, 1), corner(c.face, 2)};
       Vec3 n = (p[1] - p[0]).cross(p[2] - p[0]);
       if (!(n.norm() > 0)) return true;  // a collapsed face: the line ends on it
       n.normalize();
@@ -318,13 +326,21 @@ class Walker {
     const auto& g = s_.faces[x.to];
     int opposite = 0;
     while (g[opposite] == a || g[opposite] == b) ++opposite;
-    c = Cursor{x.to, x.point, opposite};
+    Vec3 at = x.point;
+    if (pattern_) {  // the same share of the edge, at the uv it has in the face entered
+      int ka = 0, kb = 0;
+      while (g[ka] != a) ++ka;
+      while (g[kb] != b) ++kb;
+      at = (1 - t) * corner(x.to, ka) + t * corner(x.to, kb);
+    }
+    c = Cursor{x.to, at, opposite};
     return Leave::Crossed;
   }
 
   const Vec3& pos(Index v) const { return s_.vertices[v].position; }
   const Soup& s_;
   const Adjacency& adj_;
+  bool pattern_ = false;
 };
 
 // The triangulation of a convex polygon (2D corners in order) that keeps its smallest angle
@@ -412,6 +428,7 @@ class Knife {
  private:
   // --- 1. the line over the surface ---
   void follow() {
+    if (!line_.faces.empty()) return follow_pattern();
     const Mesh& m = g_.mesh();
     if (line_.start == Mesh::null_face() || line_.start.idx() >= m.number_of_faces() + m.number_of_removed_faces() ||
         m.is_removed(line_.start))
@@ -462,20 +479,75 @@ class Knife {
       const Crossing first_crossing = crossings_.front();
       if (swept()) step(walker, c, 0);
       step(walker, c, first_crossing.point);
-      const double tiny = 1e-9 * (1.0 + first_crossing.point.norm());
-      while (crossings_.size() > 2 && (crossings_.back().point - first_crossing.point).norm() < tiny) {
-        crossings_.pop_back();
-        followed_.pop_back();
-      }
-      if (crossings_.back().to != crossings_.front().from && crossings_.back().to == crossings_.front().to) {
-        crossings_.erase(crossings_.begin());  // it came back on the other side of the first edge
-        followed_.erase(followed_.begin() + (line_.from ? 0 : 1));
-      }
-      closed_ = crossings_.size() >= 3;
+      settle_closing(first_crossing);
     } else {
       closed_ = false;
     }
     if (!closed_ && !followed_.empty() && c.face >= 0 && on_cloth) followed_.push_back(c.point);
+  }
+
+  // The line walked back to its first crossing: a crossing of that same point again is that one.
+  void settle_closing(const Crossing& first) {
+    const double tiny = 1e-9 * (1.0 + first.point.norm());
+    while (crossings_.size() > 2 && (crossings_.back().point - first.point).norm() < tiny) {
+      crossings_.pop_back();
+      followed_.pop_back();
+    }
+    if (crossings_.back().to != crossings_.front().from && crossings_.back().to == crossings_.front().to) {
+      crossings_.erase(crossings_.begin());  // it came back on the other side of the first edge
+      followed_.erase(followed_.begin() + (line_.from ? 0 : 1));
+    }
+    closed_ = crossings_.size() >= 3;
+  }
+
+  // A line given by where its points lie on the cloth: straight in the pattern from point to point,
+  // wherever folds have taken the cloth. The points' uv are read once, before vertices are moved
+  // onto the line (their faces' uv move with them).
+  void follow_pattern() {
+    const Mesh& m = g_.mesh();
+    if (pattern_at_.empty()) {
+      if (line_.faces.size() != line_.points.size() || line_.weights.size() != line_.points.size())
+        throw InputError("cut: a line that follows the pattern needs a face and weights for each of its points");
+      if (line_.from || line_.to || !line_.sweeps.empty())
+        throw InputError("cut: a line that follows the pattern lies on the cloth from end to end, with no view rays");
+      std::vector<int> index(m.number_of_faces() + m.number_of_removed_faces(), -1);
+      int i = 0;
+      for (Face f : m.faces()) index[f.idx()] = i++;
+      for (std::size_t k = 0; k < line_.faces.size(); ++k) {
+        const Face f = line_.faces[k];
+        const Vec3& w = line_.weights[k];
+        if (f == Mesh::null_face() || f.idx() >= index.size() || index[f.idx()] < 0)
+          throw InputError("cut: point " + std::to_string(k) + " of the line is on no face of garment '" + g_.name + "'");
+        if (!w.allFinite() || w.minCoeff() < -1e-6 || std::abs(w.sum() - 1) > 1e-6)
+          throw InputError("cut: point " + std::to_string(k) + " of the line has weights that are not a point of its face");
+        const auto& uv = s_.uvs[index[f.idx()]];
+        pattern_at_.emplace_back(index[f.idx()], Vec3(w[0] * uv[0].x() + w[1] * uv[1].x() + w[2] * uv[2].x(),
+                                                      w[0] * uv[0].y() + w[1] * uv[1].y() + w[2] * uv[2].y(), 0));
+      }
+    }
+    Walker walker(s_, adj_);
+    walker.in_pattern();
+    Cursor c{pattern_at_[0].first, pattern_at_[0].second, -1};
+    followed_.push_back(line_.points.front());
+    bool on_cloth = true;
+    for (std::size_t i = 1; i < pattern_at_.size() && on_cloth; ++i) {
+      std::vector<Crossing> part;
+      on_cloth = follow(walker.walk(c, pattern_at_[i].second, part), part);
+    }
+    closed_ = line_.closed && on_cloth && crossings_.size() >= 2;
+    if (closed_) {
+      const Crossing first = crossings_.front();
+      const auto& f = s_.faces[first.from];
+      int ka = 0, kb = 0;
+      while (f[ka] != first.a) ++ka;
+      while (f[kb] != first.b) ++kb;
+      std::vector<Crossing> part;
+      follow(walker.walk(c, (1 - first.t) * walker.corner(first.from, ka) + first.t * walker.corner(first.from, kb), part),
+             part);
+      settle_closing(first);
+    } else if (on_cloth) {
+      followed_.push_back(line_.points.back());
+    }
   }
 
   // The way a line that went through `went` (in order) was heading at `at`: from the last point
@@ -928,6 +1000,7 @@ class Knife {
   std::map<int, std::vector<std::pair<Index, Index>>> chords_;
   std::set<std::uint64_t> segments_;
   std::vector<Index> path_;
+  std::vector<std::pair<int, Vec3>> pattern_at_;  // a pattern line's points: face and uv
 };
 
 }  // namespace

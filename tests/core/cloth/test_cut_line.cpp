@@ -307,3 +307,95 @@ TEST(CutLine, AStrokeDrawnFromAboveAcrossASteepDomePartsTheCloth) {
     EXPECT_EQ(g.count_pieces(), 2u) << "at a spacing of " << spacing << " m";
   }
 }
+
+namespace {
+// Where a pattern point (metres, in the flat rectangle) lies on the cloth: its face and weights.
+std::pair<Face, Vec3> at_pattern(const Garment& g, const Vec2& q) {
+  const Mesh& m = g.mesh();
+  for (Face f : m.faces()) {
+    Vec2 uv[3];
+    int k = 0;
+    for (Halfedge h : CGAL::halfedges_around_face(m.halfedge(f), m)) uv[k++] = g.uv(h) * g.pattern_scale();
+    const Vec2 e0 = uv[1] - uv[0], e1 = uv[2] - uv[0], d = q - uv[0];
+    const double den = e0.x() * e1.y() - e0.y() * e1.x();
+    const double w1 = (d.x() * e1.y() - d.y() * e1.x()) / den, w2 = (e0.x() * d.y() - e0.y() * d.x()) / den;
+    if (w1 >= -1e-12 && w2 >= -1e-12 && w1 + w2 <= 1 + 1e-12) return {f, Vec3(1 - w1 - w2, w1, w2)};
+  }
+  return {Mesh::null_face(), Vec3::Zero()};
+}
+
+// How far the border cut inside the cloth lies from the ellipse of the pattern x^2 / 0.14^2 +
+// y^2 / 0.1^2 = 1 about (0.22, 0.2), at most (radially, in metres of pattern); and its vertices.
+std::pair<double, std::size_t> off_the_ellipse(const Garment& g) {
+  const Mesh& m = g.mesh();
+  double worst = 0;
+  std::size_t on = 0;
+  for (Halfedge h : m.halfedges()) {
+    if (!m.is_border(h)) continue;
+    const Vec2 q = g.uv(m.opposite(h)) * g.pattern_scale() - Vec2(0.22, 0.2);
+    const double r = std::hypot(q.x() / 0.14, q.y() / 0.1);
+    if (r > 1.5) continue;  // the rectangle's own border
+    ++on;
+    worst = std::max(worst, std::abs(r - 1) * 0.1);
+  }
+  return {worst, on};
+}
+}  // namespace
+
+// A script cuts through points it chose on the cloth (an ellipse of the pattern, as the main job
+// cuts the head opening) across a pleat: the cloth runs on to x = 0.2 m, back under itself to
+// 0.15 and on again, three layers 4 mm apart. Walked over the surface, the line stops at the
+// pleat's creases (as it should for a stroke drawn on one layer) and cuts no piece out; followed
+// in the pattern, it cuts out the ellipse exactly, pleat and all.
+TEST(CutLine, ALineThroughPointsOfThePatternCutsAcrossAPleat) {
+  const double spacing = 0.01;
+  auto pleated = [&] {
+    Garment g = make_rectangle_spaced(0.5, 0.4, spacing);
+    for (Vertex v : g.mesh().vertices()) {
+      const double x = g.position(v).x(), y = g.position(v).y();
+      const Vec3 p = x < 0.2 ? Vec3(x, 0, y) : x < 0.25 ? Vec3(0.4 - x, 0.004, y) : Vec3(x - 0.1, 0.008, y);
+      g.set_position(v, p);
+    }
+    return g;
+  };
+  KnifeLine line;
+  const int n = 48;
+  for (int i = 0; i < n; ++i) {
+    const double a = 2 * M_PI * i / n;
+    const auto [face, w] = at_pattern(pleated(), Vec2(0.22 + 0.14 * std::cos(a), 0.2 + 0.1 * std::sin(a)));
+    ASSERT_NE(face, Mesh::null_face());
+    line.faces.push_back(face);
+    line.weights.push_back(w);
+  }
+  {
+    const Garment g = pleated();
+    for (std::size_t i = 0; i < line.faces.size(); ++i) {
+      Vec3 p = Vec3::Zero();
+      int k = 0;
+      for (Vertex v : CGAL::vertices_around_face(g.mesh().halfedge(line.faces[i]), g.mesh())) p += line.weights[i][k++] * g.position(v);
+      line.points.push_back(p);
+    }
+  }
+  line.start = line.faces.front();
+  line.closed = true;
+
+  Garment walked = pleated();
+  KnifeLine over_surface = line;
+  over_surface.faces.clear();
+  over_surface.weights.clear();
+  cut_line(walked, over_surface);
+  EXPECT_GT(off_the_ellipse(walked).first, 0.01) << "walked over the surface, the line keeps to the bottom layer";
+
+  Garment g = pleated();
+  const double area = total_rest_area(g);
+  const KnifeCut cut = cut_line(g, line);
+  EXPECT_TRUE(cut.closed);
+  EXPECT_TRUE(g.is_valid());
+  ASSERT_EQ(g.count_pieces(), 2u);
+  EXPECT_NEAR(total_rest_area(g), area, 1e-9 * area);
+  // The piece cut out is the ellipse of the pattern: both sides of the opening on it, within a
+  // quarter of the spacing.
+  const auto [worst, on] = off_the_ellipse(g);
+  EXPECT_GT(on, 2u * 60u) << "both sides of a 76 cm opening at 1 cm";
+  EXPECT_LT(worst, 0.25 * spacing);
+}

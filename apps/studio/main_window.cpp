@@ -411,10 +411,7 @@ void MainWindow::on_message(const QString& text, bool error) {
     error_box_->setObjectName("error_box");
     error_box_->setAttribute(Qt::WA_DeleteOnClose);
     error_box_->setModal(false);
-    connect(error_box_, &QObject::destroyed, this, [this] {
-      error_box_ = nullptr;
-      errors_in_box_ = 0;
-    });
+    errors_in_box_ = 0;
   }
   ++errors_in_box_;
   error_box_->setText(errors_in_box_ > 1 ? QString("%1\n\n(%2 messages; this is the latest)").arg(text).arg(errors_in_box_)

@@ -8,6 +8,7 @@
 #include "viewport.h"
 
 #include <QMainWindow>
+#include <QPointer>
 
 class QAction;
 class QActionGroup;
@@ -87,7 +88,9 @@ class MainWindow : public QMainWindow {
   QLabel* status_tool_;
   QLabel* status_shared_;
   QLabel* status_hint_;
-  QMessageBox* error_box_ = nullptr;
+  // A QPointer, not a pointer cleared by the box's destroyed signal: the box is a child, deleted
+  // after the window's own destructor has run, where a slot of the window may not run.
+  QPointer<QMessageBox> error_box_;
   int errors_in_box_ = 0;
   QAction* run_action_;
   QAction* undo_action_;

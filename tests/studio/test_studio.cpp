@@ -31,6 +31,7 @@
 #include <QStatusBar>
 #include <QtTest/QtTest>
 
+#include <algorithm>
 #include <atomic>
 #include <fstream>
 #include <functional>
@@ -42,11 +43,13 @@ using namespace kiji::studio;
 
 namespace {
 
+// Waits up to `ms` for `done`, times KIJI_TEST_SLOWDOWN (a sanitizer build steps a few times slower).
 template <typename P>
 bool wait_until(P done, int ms = 10000) {
+  static const int slowdown = std::max(1, qEnvironmentVariableIntValue("KIJI_TEST_SLOWDOWN"));
   QElapsedTimer t;
   t.start();
-  while (!done() && t.elapsed() < ms) QTest::qWait(10);
+  while (!done() && t.elapsed() < qint64(ms) * slowdown) QTest::qWait(10);
   return done();
 }
 

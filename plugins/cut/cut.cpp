@@ -32,7 +32,8 @@ class CutTool : public Tool {
                                "Mode 'line', between two points of the stroke: 'surface' follows the cloth as it "
                                "lies (the layer the stroke is on, under folds); 'pattern' goes straight in the flat "
                                "pattern between the cloth points the stroke touched, across folds and wrinkles (a "
-                               "script's cut through points it chose on the cloth).")}};
+                               "script's or a pen's cut through points on the cloth; a stroke drawn in a view "
+                               "follows what it covers as seen).")}};
   }
 
   Feedback begin(ToolContext& context, const ParamSet& params, const ToolEvent& event) override {
@@ -108,10 +109,11 @@ class CutTool : public Tool {
     // Drawn in a view (every point with a ray), the line is what the stroke covers as seen.
     if (std::all_of(marks_.begin(), marks_.end(), [](const Mark& m) { return m.ray.squaredNorm() > 0; }))
       for (const Mark& m : marks_) line.sweeps.push_back(m.ray.normalized());
-    // Along the pattern: where each point lies on the cloth, while the faces are those it was drawn on.
-    if (follow_pattern_ && !started_off_cloth_ && !ended_off_cloth &&
+    // Along the pattern: where each point lies on the cloth, while the faces are those it was drawn
+    // on. Not for a stroke drawn in a view: over folds its points hop between layers, and the line
+    // between them in the pattern cut out scraps (tried by hand in Kiji Studio).
+    if (follow_pattern_ && line.sweeps.empty() && !started_off_cloth_ && !ended_off_cloth &&
         g.topology_version() == topology_at_begin_) {
-      line.sweeps.clear();
       for (const Mark& m : marks_) {
         line.faces.push_back(m.face);
         line.weights.push_back(m.weights);

@@ -71,7 +71,7 @@ inline Body make_slope(double degrees) {
     f.push_back({q[0], q[1], q[2]});
     f.push_back({q[0], q[2], q[3]});
   }
-  const Vec3 middle(-s * -0.1, c * -0.1, 0);
+  const Vec3 middle(0.1 * s, -0.1 * c, 0);  // half the thickness below the top's middle
   for (auto& tri : f) {
     const Vec3 n = (v[tri[1]] - v[tri[0]]).cross(v[tri[2]] - v[tri[0]]);
     if (n.dot(v[tri[0]] + v[tri[1]] + v[tri[2]] - 3 * middle) < 0) std::swap(tri[1], tri[2]);

@@ -11,10 +11,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <limits>
 #include <map>
 #include <numeric>
 #include <set>
+#include <sstream>
 #include <unordered_map>
 #include <unordered_set>
 
@@ -32,6 +34,10 @@ using detail::VertexData;
 // A crossing this close to a vertex, as a share of the edge, moves the vertex onto the line: nearer,
 // the new triangles would have an edge under a third of the others' and angles of a few degrees.
 constexpr double kMoveVertex = 0.3;
+// A line that follows the pattern may go this far in the pattern between two points, or three times
+// as far as between them on the cloth (folds bring the pattern's points nearer): more is a jump from
+// one layer of a fold to another.
+constexpr double kPatternJump = 0.02;
 // Once vertices are on the line, a crossing this close to one that could not be moved (a pinned one,
 // a border one off the border's line) goes through it.
 constexpr double kThroughVertex = 0.12;
@@ -524,6 +530,22 @@ class Knife {
         pattern_at_.emplace_back(index[f.idx()], Vec3(w[0] * uv[0].x() + w[1] * uv[1].x() + w[2] * uv[2].x(),
                                                       w[0] * uv[0].y() + w[1] * uv[1].y() + w[2] * uv[2].y(), 0));
       }
+      // A stroke drawn over a fold touches its layers in turn: in the pattern its line jumps from
+      // one layer's cloth to the other's, or crosses itself, and would cut out what lies between.
+      for (std::size_t k = 0; k + 1 < pattern_at_.size(); ++k) {
+        const double on_pattern = (pattern_at_[k + 1].second - pattern_at_[k].second).norm() * g_.pattern_scale();
+        const double on_cloth = (line_.points[k + 1] - line_.points[k]).norm();
+        if (on_pattern > std::max(3 * on_cloth, kPatternJump)) {
+          std::ostringstream msg;
+          msg << "cut: between points " << k << " and " << k + 1 << " the line goes " << 100 * on_pattern
+              << " cm in the pattern for " << 100 * on_cloth << " cm on the cloth (the stroke went from one layer "
+              << "of a fold to another); draw it on one layer, or let it follow the surface";
+          throw InputError(msg.str());
+        }
+      }
+      if (crosses_itself(pattern_at_, line_.closed))
+        throw InputError("cut: the line crosses itself in the pattern (its points lie on different layers of a fold); "
+                         "draw it on one layer, or let it follow the surface");
     }
     Walker walker(s_, adj_);
     walker.in_pattern();
@@ -548,6 +570,21 @@ class Knife {
     } else if (on_cloth) {
       followed_.push_back(line_.points.back());
     }
+  }
+
+  // Whether the polyline through the points' uv (closed: back to the first) crosses itself.
+  static bool crosses_itself(const std::vector<std::pair<int, Vec3>>& at, bool closed) {
+    const std::size_t n = at.size(), segments = closed ? n : n - 1;
+    auto cross = [](const Vec3& o, const Vec3& a, const Vec3& b) {
+      return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
+    };
+    for (std::size_t i = 0; i < segments; ++i)
+      for (std::size_t j = i + 2; j < segments; ++j) {
+        if (closed && i == 0 && j == segments - 1) continue;  // the two neighbours of the first point
+        const Vec3 &a = at[i].second, &b = at[(i + 1) % n].second, &c = at[j].second, &d = at[(j + 1) % n].second;
+        if (cross(a, b, c) * cross(a, b, d) < 0 && cross(c, d, a) * cross(c, d, b) < 0) return true;
+      }
+    return false;
   }
 
   // The way a line that went through `went` (in order) was heading at `at`: from the last point

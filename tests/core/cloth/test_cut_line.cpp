@@ -399,3 +399,65 @@ TEST(CutLine, ALineThroughPointsOfThePatternCutsAcrossAPleat) {
   EXPECT_GT(on, 2u * 60u) << "both sides of a 76 cm opening at 1 cm";
   EXPECT_LT(worst, 0.25 * spacing);
 }
+
+// A stroke drawn over a fold touches its layers in turn, so in the pattern its line loops across
+// itself; followed there it would cut out the pieces between the loops. It is refused, with the
+// reason, and the cloth is as it was: a figure eight in the pattern stands for such a line.
+TEST(CutLine, ALineThatCrossesItselfInThePatternIsRefused) {
+  Garment g = make_rectangle_spaced(0.5, 0.4, 0.01);
+  const Garment before = g;
+  KnifeLine line;
+  const int n = 60;
+  for (int i = 0; i < n; ++i) {
+    const double a = 2 * M_PI * i / n;
+    const auto [face, w] = at_pattern(g, Vec2(0.25 + 0.15 * std::sin(a), 0.2 + 0.1 * std::sin(2 * a)));
+    ASSERT_NE(face, Mesh::null_face());
+    line.faces.push_back(face);
+    line.weights.push_back(w);
+    Vec3 p = Vec3::Zero();
+    int k = 0;
+    for (Vertex v : CGAL::vertices_around_face(g.mesh().halfedge(face), g.mesh())) p += w[k++] * g.position(v);
+    line.points.push_back(p);
+  }
+  line.start = line.faces.front();
+  line.closed = true;
+  try {
+    cut_line(g, line);
+    FAIL() << "a line crossing itself in the pattern was cut";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("crosses itself in the pattern"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(g.mesh().number_of_faces(), before.mesh().number_of_faces());
+  EXPECT_EQ(g.count_pieces(), 1u);
+}
+
+// A stroke that goes from one layer of a fold to another (a pen or mouse over a pleat: two points
+// 4 mm apart on the cloth, 4 cm apart in the pattern) is refused when it follows the pattern, with
+// the reason, and the cloth is as it was.
+TEST(CutLine, ALineThatJumpsBetweenTheLayersOfAFoldIsRefusedAlongThePattern) {
+  Garment g = make_rectangle_spaced(0.5, 0.4, 0.01);
+  for (Vertex v : g.mesh().vertices()) {
+    const double x = g.position(v).x(), y = g.position(v).y();
+    g.set_position(v, x < 0.2 ? Vec3(x, 0, y) : x < 0.25 ? Vec3(0.4 - x, 0.004, y) : Vec3(x - 0.1, 0.008, y));
+  }
+  const std::size_t faces = g.mesh().number_of_faces();
+  KnifeLine line;
+  for (const Vec2 q : {Vec2(0.10, 0.2), Vec2(0.18, 0.2), Vec2(0.22, 0.2), Vec2(0.22, 0.3)}) {
+    const auto [face, w] = at_pattern(g, q);
+    ASSERT_NE(face, Mesh::null_face());
+    line.faces.push_back(face);
+    line.weights.push_back(w);
+    Vec3 p = Vec3::Zero();
+    int k = 0;
+    for (Vertex v : CGAL::vertices_around_face(g.mesh().halfedge(face), g.mesh())) p += w[k++] * g.position(v);
+    line.points.push_back(p);
+  }
+  line.start = line.faces.front();
+  try {
+    cut_line(g, line);
+    FAIL() << "a line jumping between layers was cut along the pattern";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("between points 1 and 2"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(g.mesh().number_of_faces(), faces);
+}

@@ -111,7 +111,7 @@ class CutTool : public Tool {
       for (const Mark& m : marks_) line.sweeps.push_back(m.ray.normalized());
     // Along the pattern: where each point lies on the cloth, while the faces are those it was drawn
     // on. Not for a stroke drawn in a view: over folds its points hop between layers, and the line
-    // between them in the pattern cut out scraps (tried by hand in Kiji Studio).
+    // between them in the pattern encloses scraps of cloth.
     if (follow_pattern_ && line.sweeps.empty() && !started_off_cloth_ && !ended_off_cloth &&
         g.topology_version() == topology_at_begin_) {
       for (const Mark& m : marks_) {

@@ -537,7 +537,8 @@ class Knife {
         const double on_cloth = (line_.points[k + 1] - line_.points[k]).norm();
         if (on_pattern > std::max(3 * on_cloth, kPatternJump)) {
           std::ostringstream msg;
-          msg << "cut: between points " << k << " and " << k + 1 << " the line goes " << 100 * on_pattern
+          msg << std::fixed << std::setprecision(1) << "cut: between points " << k << " and " << k + 1
+              << " the line goes " << 100 * on_pattern
               << " cm in the pattern for " << 100 * on_cloth << " cm on the cloth (the stroke went from one layer "
               << "of a fold to another); draw it on one layer, or let it follow the surface";
           throw InputError(msg.str());

@@ -324,6 +324,31 @@ std::pair<Face, Vec3> at_pattern(const Garment& g, const Vec2& q) {
   return {Mesh::null_face(), Vec3::Zero()};
 }
 
+// Adds a pattern point to a line along the pattern: its face, weights and place on the cloth.
+// Returns false, adding nothing, where the point is off the cloth.
+bool add_at_pattern(const Garment& g, KnifeLine& line, const Vec2& q) {
+  const auto [face, w] = at_pattern(g, q);
+  if (face == Mesh::null_face()) return false;
+  Vec3 p = Vec3::Zero();
+  int k = 0;
+  for (Vertex v : CGAL::vertices_around_face(g.mesh().halfedge(face), g.mesh())) p += w[k++] * g.position(v);
+  line.faces.push_back(face);
+  line.weights.push_back(w);
+  line.points.push_back(p);
+  return true;
+}
+
+// A 0.5 x 0.4 m cloth pleated: it runs on to x = 0.2 m, back under itself to 0.15 and on again,
+// three layers 4 mm apart.
+Garment pleated(double spacing) {
+  Garment g = make_rectangle_spaced(0.5, 0.4, spacing);
+  for (Vertex v : g.mesh().vertices()) {
+    const double x = g.position(v).x(), y = g.position(v).y();
+    g.set_position(v, x < 0.2 ? Vec3(x, 0, y) : x < 0.25 ? Vec3(0.4 - x, 0.004, y) : Vec3(x - 0.1, 0.008, y));
+  }
+  return g;
+}
+
 // How far the border cut inside the cloth lies from the ellipse of the pattern x^2 / 0.14^2 +
 // y^2 / 0.1^2 = 1 about (0.22, 0.2), at most (radially, in metres of pattern); and its vertices.
 std::pair<double, std::size_t> off_the_ellipse(const Garment& g) {
@@ -343,50 +368,29 @@ std::pair<double, std::size_t> off_the_ellipse(const Garment& g) {
 }  // namespace
 
 // A script cuts through points it chose on the cloth (an ellipse of the pattern, as the main job
-// cuts the head opening) across a pleat: the cloth runs on to x = 0.2 m, back under itself to
-// 0.15 and on again, three layers 4 mm apart. Walked over the surface, the line stops at the
+// cuts the head opening) across a pleat (`pleated`). Walked over the surface, the line stops at the
 // pleat's creases (as it should for a stroke drawn on one layer) and cuts no piece out; followed
 // in the pattern, it cuts out the ellipse exactly, pleat and all.
 TEST(CutLine, ALineThroughPointsOfThePatternCutsAcrossAPleat) {
   const double spacing = 0.01;
-  auto pleated = [&] {
-    Garment g = make_rectangle_spaced(0.5, 0.4, spacing);
-    for (Vertex v : g.mesh().vertices()) {
-      const double x = g.position(v).x(), y = g.position(v).y();
-      const Vec3 p = x < 0.2 ? Vec3(x, 0, y) : x < 0.25 ? Vec3(0.4 - x, 0.004, y) : Vec3(x - 0.1, 0.008, y);
-      g.set_position(v, p);
-    }
-    return g;
-  };
+  const Garment cloth = pleated(spacing);
   KnifeLine line;
   const int n = 48;
   for (int i = 0; i < n; ++i) {
     const double a = 2 * M_PI * i / n;
-    const auto [face, w] = at_pattern(pleated(), Vec2(0.22 + 0.14 * std::cos(a), 0.2 + 0.1 * std::sin(a)));
-    ASSERT_NE(face, Mesh::null_face());
-    line.faces.push_back(face);
-    line.weights.push_back(w);
-  }
-  {
-    const Garment g = pleated();
-    for (std::size_t i = 0; i < line.faces.size(); ++i) {
-      Vec3 p = Vec3::Zero();
-      int k = 0;
-      for (Vertex v : CGAL::vertices_around_face(g.mesh().halfedge(line.faces[i]), g.mesh())) p += line.weights[i][k++] * g.position(v);
-      line.points.push_back(p);
-    }
+    ASSERT_TRUE(add_at_pattern(cloth, line, Vec2(0.22 + 0.14 * std::cos(a), 0.2 + 0.1 * std::sin(a))));
   }
   line.start = line.faces.front();
   line.closed = true;
 
-  Garment walked = pleated();
+  Garment walked = cloth;
   KnifeLine over_surface = line;
   over_surface.faces.clear();
   over_surface.weights.clear();
   cut_line(walked, over_surface);
   EXPECT_GT(off_the_ellipse(walked).first, 0.01) << "walked over the surface, the line keeps to the bottom layer";
 
-  Garment g = pleated();
+  Garment g = cloth;
   const double area = total_rest_area(g);
   const KnifeCut cut = cut_line(g, line);
   EXPECT_TRUE(cut.closed);
@@ -410,14 +414,7 @@ TEST(CutLine, ALineThatCrossesItselfInThePatternIsRefused) {
   const int n = 60;
   for (int i = 0; i < n; ++i) {
     const double a = 2 * M_PI * i / n;
-    const auto [face, w] = at_pattern(g, Vec2(0.25 + 0.15 * std::sin(a), 0.2 + 0.1 * std::sin(2 * a)));
-    ASSERT_NE(face, Mesh::null_face());
-    line.faces.push_back(face);
-    line.weights.push_back(w);
-    Vec3 p = Vec3::Zero();
-    int k = 0;
-    for (Vertex v : CGAL::vertices_around_face(g.mesh().halfedge(face), g.mesh())) p += w[k++] * g.position(v);
-    line.points.push_back(p);
+    ASSERT_TRUE(add_at_pattern(g, line, Vec2(0.25 + 0.15 * std::sin(a), 0.2 + 0.1 * std::sin(2 * a))));
   }
   line.start = line.faces.front();
   line.closed = true;
@@ -435,23 +432,11 @@ TEST(CutLine, ALineThatCrossesItselfInThePatternIsRefused) {
 // 4 mm apart on the cloth, 4 cm apart in the pattern) is refused when it follows the pattern, with
 // the reason, and the cloth is as it was.
 TEST(CutLine, ALineThatJumpsBetweenTheLayersOfAFoldIsRefusedAlongThePattern) {
-  Garment g = make_rectangle_spaced(0.5, 0.4, 0.01);
-  for (Vertex v : g.mesh().vertices()) {
-    const double x = g.position(v).x(), y = g.position(v).y();
-    g.set_position(v, x < 0.2 ? Vec3(x, 0, y) : x < 0.25 ? Vec3(0.4 - x, 0.004, y) : Vec3(x - 0.1, 0.008, y));
-  }
+  Garment g = pleated(0.01);
   const std::size_t faces = g.mesh().number_of_faces();
   KnifeLine line;
-  for (const Vec2 q : {Vec2(0.10, 0.2), Vec2(0.18, 0.2), Vec2(0.22, 0.2), Vec2(0.22, 0.3)}) {
-    const auto [face, w] = at_pattern(g, q);
-    ASSERT_NE(face, Mesh::null_face());
-    line.faces.push_back(face);
-    line.weights.push_back(w);
-    Vec3 p = Vec3::Zero();
-    int k = 0;
-    for (Vertex v : CGAL::vertices_around_face(g.mesh().halfedge(face), g.mesh())) p += w[k++] * g.position(v);
-    line.points.push_back(p);
-  }
+  for (const Vec2 q : {Vec2(0.10, 0.2), Vec2(0.18, 0.2), Vec2(0.22, 0.2), Vec2(0.22, 0.3)})
+    ASSERT_TRUE(add_at_pattern(g, line, q));
   line.start = line.faces.front();
   try {
     cut_line(g, line);

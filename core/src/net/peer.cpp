@@ -15,6 +15,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 
 namespace kiji {
 
@@ -26,6 +27,10 @@ constexpr int kMaxStepsPerTick = 8;  // catching up, a tick steps at most this m
 // before its next step, to hear and answer the joiner's requests for lost chunks (a step later
 // would be tenths of a second on a large garment).
 constexpr double kRepairWindow = 0.15;
+// A peer taken for gone waits this long before it asks to join again: longer than any message
+// it sent before it knew is on the way.
+constexpr double kRejoinAfter = 0.2;
+constexpr double kAskBackEvery = 0.1;
 
 ToolEvent cancel_event(double time) {
   ToolEvent e;
@@ -101,6 +106,16 @@ struct Peer::Impl final : SequencerHost {
   std::uint64_t next_pseq = 1;
   std::size_t given_up_after_stop = 0;  // counted in one refusal, refusals[given_up_refusal]
   std::size_t given_up_refusal = 0;
+  // The sequencer took this peer for gone (it heard nothing from it for silence_seconds: a peer
+  // too slow to answer, or paused) and orders nothing of it after, until it asks to join again:
+  // its changes until it asks are given up, counted in one refusal, refusals[gone_refusal]. Its
+  // state is still the shared one (it applies every order), so it asks with a join, which the
+  // sequencer answers as any join, with a checkpoint and its state; asked again until that comes.
+  bool taken_for_gone = false, rejoining = false;
+  bool stroke_cut_off = false;  // the stroke its user was drawing then, cancelled everywhere: given up to its end
+  double gone_at = -1, asked_back_at = -1;
+  std::size_t given_up_gone = 0;
+  std::size_t gone_refusal = 0;
 
   // --- pacing and presence ---
   double step_seconds = 0;   // a step's wall time from step to step (a moving mean; 0: unknown)
@@ -134,7 +149,7 @@ struct Peer::Impl final : SequencerHost {
     const bool seq = sequencer.is_self();
     h.name = opt.name;
     h.sequencer = seq;
-    h.joined = joined;
+    h.joined = joined && !rejoining;  // back after it was taken for gone: not until its state has come
     h.step = session.steps();
     h.received = log.received_through();
     h.horizon = seq ? sequencer.announced() : log.horizon();
@@ -163,6 +178,7 @@ struct Peer::Impl final : SequencerHost {
 
   // ---------------------------------------------------------------- local proposals
   void propose_local(std::uint64_t desired, const std::string& peer_op) {
+    if (taken_for_gone) return give_up_gone(1);
     const std::uint64_t pseq = next_pseq++;
     Proposal& p = pending[pseq];
     p.desired = desired;
@@ -273,7 +289,7 @@ struct Peer::Impl final : SequencerHost {
         if (sequencer.is_self() && !members.left.count(env.sender)) sequencer.order_departure(env.sender);
         m.joined = false;
         break;
-      case kState: joining.on_offer(decode_state_offer(env.body), joined); break;
+      case kState: joining.on_offer(decode_state_offer(env.body), joined && !rejoining); break;
       case kHeal: joining.on_request(env.sender, sequencer.acting()); break;
       default: ++core.stats.dropped["unknown type"]; break;
     }
@@ -371,8 +387,8 @@ struct Peer::Impl final : SequencerHost {
         // The repair window starts once the chunks are out and this peer's rebuild is done.
         if (seq && opt.clock) shipped_at = opt.clock();
         if (std::find(pop.targets.begin(), pop.targets.end(), core.id) != pop.targets.end() && !seq) {
-          joined = false;  // this peer's state was the wrong one: it waits for the sequencer's
-          joining.forget_offer();
+          joined = false;  // healed, or back after it was taken for gone: it waits for the sequencer's state
+          if (!rejoining) joining.forget_offer();  // back, the offer may have come already: it is this one's
         }
         break;
       }
@@ -382,6 +398,19 @@ struct Peer::Impl final : SequencerHost {
               {session.steps(), pop.peer, op::ToolInput{session.active_tool(pop.peer), {}, cancel_event(session.time())}});
         leases.forget(pop.peer);
         members.left.insert(pop.peer);
+        if (pop.peer == core.id) {
+          // Everything of this peer ordered before its departure is applied by now: what is left
+          // was never ordered, and never will be. Its numbers go to the proposals after it joins
+          // again (the sequencer takes each origin's proposals in an unbroken run).
+          if (!taken_for_gone) given_up_gone = 0;
+          taken_for_gone = true;
+          stroke_cut_off = true;
+          rejoining = false;
+          gone_at = now();
+          give_up_gone(pending.size());
+          if (!pending.empty()) next_pseq = pending.begin()->first;
+          pending.clear();
+        }
         break;
       }
     }
@@ -407,6 +436,7 @@ struct Peer::Impl final : SequencerHost {
       p = p->second.ordered && !later ? pending.erase(p) : std::next(p);
     }
     joined = true;
+    rejoining = false;
     joining.forget_offer();
     next_step_time = now();
     heartbeat();
@@ -490,6 +520,7 @@ struct Peer::Impl final : SequencerHost {
       joining.ask();
       try_load_offer();
     }
+    ask_back();
     if (!seq && joined) sequencer.elect(started);
     transfer.send_chunks();  // chunks asked for again go out now, not after the next (maybe slow) step
     // A peer that has just loaded the shared state lets its user see it before it steps on: on a
@@ -512,6 +543,35 @@ struct Peer::Impl final : SequencerHost {
   // At the shared stop nothing ordered after it is applied anywhere: this peer's proposals ordered
   // past it, and those still unordered once every live peer agrees there, would wait for ever (a
   // stroke longer than the session). They are given up, and said as one refusal.
+  // Taken for gone, it asks to join again once its last proposals can no longer be on the way (the
+  // sequencer, taking it back, would order them), and again while no checkpoint for it has come.
+  void ask_back() {
+    const std::uint64_t stop_at = log.stop() ? log.stop() : opt.stop_step;
+    if (!joined || (stop_at && session.steps() >= stop_at)) return;
+    if (taken_for_gone && now() - gone_at >= kRejoinAfter) {
+      taken_for_gone = false;
+      rejoining = true;
+    }
+    if (rejoining && (asked_back_at < 0 || now() - asked_back_at >= kAskBackEvery)) {
+      send(kJoin, encode_name(opt.name));
+      asked_back_at = now();
+    }
+  }
+
+  void give_up_gone(std::size_t changes) {
+    if (changes == 0) return;
+    if (given_up_gone == 0) {
+      gone_refusal = refusals.size();
+      refusals.push_back({session.steps(), {}});
+    }
+    given_up_gone += changes;
+    std::ostringstream why;
+    why << "the session took this peer for gone at step " << refusals[gone_refusal].step << " (nothing was heard "
+        << "from it for " << opt.silence_seconds << " s): " << given_up_gone
+        << " change(s) made until it had joined again, or in the stroke it cut off, were not applied";
+    refusals[gone_refusal].reason = why.str();
+  }
+
   void give_up_after_stop(std::uint64_t stop_at) {
     const bool all_agree = audit.agree_at(stop_at);
     std::size_t dropped = 0;
@@ -559,6 +619,11 @@ Peer::Peer(Session& session, PeerTransport& transport, PeerOptions options)
 Peer::~Peer() { impl_->session.clear_gate(); }
 
 void Peer::on_local(const Operation& op) {
+  Impl& m = *impl_;
+  if (const auto* input = std::get_if<op::ToolInput>(&op.data)) {
+    if (input->event.phase == Phase::Begin) m.stroke_cut_off = false;
+    else if (m.stroke_cut_off) return m.give_up_gone(1);
+  }
   PeerOp pop;
   pop.kind = PeerOp::Session;
   Operation own = op;

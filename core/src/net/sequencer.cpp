@@ -48,6 +48,7 @@ void Sequencer::order_own(const PeerOp& op) {
 }
 
 void Sequencer::order_departure(std::uint32_t peer) {
+  waiting_.erase(peer);  // proposals it sent before: not to be ordered if it comes back
   members_.left.insert(peer);
   PeerOp op;
   op.kind = PeerOp::PeerLeft;

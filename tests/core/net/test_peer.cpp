@@ -169,6 +169,9 @@ void run_seed(std::uint64_t seed, bool crash_sequencer) {
       {1.6, 1, pinch(Vec3(0, 0.5, 0), Vec3(0, 0.4, 0.1))},
   };
   const int victim = 1 + static_cast<int>(rng() % 6);
+  // Another peer pauses (it neither hears nor speaks) for longer than silence_seconds: taken for
+  // gone, it joins again.
+  const int paused = 1 + (victim % 6);
   std::size_t next = 0;
   double crash_at = 1.2;
   bool crashed = false, overlap = false;
@@ -178,9 +181,10 @@ void run_seed(std::uint64_t seed, bool crash_sequencer) {
       overlap = overlap || doubly_held(*g.nodes[i].peer);
       leased = std::max(leased, g.nodes[i].peer->leases().size());
     }
+    g.nodes[paused].started = g.net.now() < 1.4 || g.net.now() >= 2.0;
     while (next < acts.size() && acts[next].at <= g.net.now() + 1e-9) {
       const Act& a = acts[next++];
-      if (g.net.alive(a.node)) a.act(*g.nodes[a.node].session);
+      if (g.net.alive(a.node) && g.nodes[a.node].started) a.act(*g.nodes[a.node].session);
     }
     if (!g.nodes[7].started && g.net.now() >= 0.9) g.start(7);  // a late joiner
     if (!crashed && g.net.now() >= crash_at) {
@@ -320,6 +324,72 @@ TEST(Peers, AStrokeGoingOnPastTheSharedStopIsGivenUpThereAndSaid) {
       << r[0].reason;
   // The stroke's first part, before the stop, was applied on both.
   EXPECT_GT(g.nodes[0].peer->applied(), 1u);
+}
+
+TEST(Peers, APeerTakenForGoneSaysWhatWasNotAppliedAndJoinsAgain) {
+  // A peer that says nothing for longer than silence_seconds (a machine too slow to answer while
+  // it loads a large state, a paused process) is taken for gone, and the sequencer orders nothing
+  // of it after. Back, the stroke its user drew before it knew is given up and said (it had been
+  // sent again for ever and applied nowhere), and it joins again: its next stroke is applied.
+  Group g(5, {}, 2);
+  g.base.stop_step = 400;
+  host_garment(*g.nodes[0].session);
+  g.start(0);
+  g.start(1);
+  g.run_until(0.3);
+  ASSERT_TRUE(g.nodes[1].peer->joined());
+  g.nodes[1].started = false;  // it neither hears nor speaks
+  g.run_until(1.0);
+  g.nodes[1].started = true;
+  Session& b = *g.nodes[1].session;
+  const ParamSet params = b.params_for("pinch");
+  const std::uint64_t checkpoints_before = g.nodes[0].peer->stats().checkpoints;
+  bool back_before_its_end = false;
+  auto draw = [&](const Stroke& stroke, double until) {
+    std::size_t i = 0;
+    g.run_until(until, [&] {
+      if (i < stroke.size() && std::fmod(g.net.now(), 0.017) < 0.001) {
+        ToolEvent e = stroke[i++];
+        e.time = b.time();
+        b.apply("pinch", e, &params);
+        back_before_its_end = g.nodes[1].peer->joined() && g.nodes[0].peer->stats().checkpoints > checkpoints_before;
+      }
+    });
+    ASSERT_EQ(i, stroke.size());
+  };
+  // Drawn from its return for a third of a second: past the moment it has joined again (the rest
+  // of a stroke cancelled everywhere is given up too, not refused event by event).
+  const Stroke unseen = line(Vec3(0.3, 0.5, 0), Vec3(0.3, 0.6, 0.1), 20, 0);
+  draw(unseen, 1.6);
+  EXPECT_TRUE(back_before_its_end) << "the stroke was to go on after it had joined again";
+  auto strokes_of_peer1 = [&](int node) {
+    std::size_t n = 0;
+    for (const Operation& op : g.nodes[node].session->journal().operations())
+      n += std::holds_alternative<op::ToolInput>(op.data) && op.user == 101u;
+    return n;
+  };
+  EXPECT_EQ(strokes_of_peer1(0), 0u) << "the host applied the stroke drawn while it was taken for gone";
+  EXPECT_EQ(g.nodes[1].peer->pending(), 0u) << "the peer still waits for changes that will never be taken";
+  const auto& r = g.nodes[1].peer->refusals();
+  ASSERT_EQ(r.size(), 1u);
+  EXPECT_NE(r[0].reason.find("took this peer for gone"), std::string::npos) << r[0].reason;
+  EXPECT_NE(r[0].reason.find(std::to_string(unseen.size()) + " change(s) made until it had joined again, or in the "
+                                                           "stroke it cut off, were not applied"),
+            std::string::npos)
+      << r[0].reason;
+  ASSERT_TRUE(g.nodes[1].peer->joined()) << "it did not join again";
+
+  const Stroke seen = line(Vec3(-0.3, 0.5, 0), Vec3(-0.35, 0.6, 0.1), 6, 0);
+  draw(seen, 2.4);
+  g.run_until(8.0);
+  EXPECT_EQ(strokes_of_peer1(0), seen.size()) << "the stroke drawn after it joined again";
+  for (int n : {0, 1}) {
+    EXPECT_EQ(g.nodes[n].session->steps(), 400u) << "peer " << n << " reached the shared stop";
+    EXPECT_TRUE(g.nodes[n].peer->converged()) << "peer " << n;
+  }
+  EXPECT_EQ(g.nodes[1].peer->pending(), 0u);
+  EXPECT_EQ(g.nodes[1].peer->refusals().size(), 1u);
+  EXPECT_EQ(g.nodes[0].peer->state_hash(), g.nodes[1].peer->state_hash());
 }
 
 TEST(Peers, ADisagreementIsFoundReportedAndHealed) {

@@ -31,6 +31,7 @@ constexpr double kRepairWindow = 0.15;
 // it sent before it knew is on the way.
 constexpr double kRejoinAfter = 0.2;
 constexpr double kAskBackEvery = 0.1;
+constexpr int kMostKeepAlives = 64;
 
 ToolEvent cancel_event(double time) {
   ToolEvent e;
@@ -145,6 +146,38 @@ struct Peer::Impl final : SequencerHost {
   }
 
   void heartbeat() override {
+    send(kHeartbeat, encode(heartbeat_now()));
+    last_beat = now();
+  }
+
+  // Heartbeats sealed now for the transport to send while this peer's thread is busy (a step, a
+  // state loaded or shipped: what they say stays true until it ends), one every third of the
+  // silence that makes a peer gone, for eight times the last step's length (a step of unknown
+  // length, the first after a join rebuilds the solver: for the most); taken back after.
+  class KeptAlive {
+   public:
+    explicit KeptAlive(Impl& m) : m_(m) {
+      const double every = m.opt.silence_seconds / 3;
+      const int count = m.step_seconds > 0 ? static_cast<int>(std::ceil(8 * m.step_seconds / every)) : kMostKeepAlives;
+      const std::string body = encode(m.heartbeat_now());
+      std::vector<std::string> sealed;
+      for (int k = 0; k < std::clamp(count, 2, kMostKeepAlives); ++k)
+        sealed.push_back(m.wire->seal(kHeartbeat, m.sequencer.epoch(), body));
+      m.transport.keep_alive(std::move(sealed), every);
+    }
+    ~KeptAlive() { m_.transport.keep_alive({}, 0); }
+    KeptAlive(const KeptAlive&) = delete;
+    KeptAlive& operator=(const KeptAlive&) = delete;
+
+   private:
+    Impl& m_;
+  };
+  // Only in real time, where the work may outlast a heartbeat.
+  void keep_alive_if(bool long_work, std::optional<KeptAlive>& kept) {
+    if (long_work && opt.clock) kept.emplace(*this);
+  }
+
+  Heartbeat heartbeat_now() {
     Heartbeat h;
     const bool seq = sequencer.is_self();
     h.name = opt.name;
@@ -157,8 +190,7 @@ struct Peer::Impl final : SequencerHost {
     h.stop = log.stop() ? log.stop() : opt.stop_step;
     if (seq)
       for (const auto& [origin, pseq] : sequencer.ordered()) h.ordered.emplace_back(origin, pseq);
-    send(kHeartbeat, encode(h));
-    last_beat = now();
+    return h;
   }
 
   // ---------------------------------------------------------------- what the sequencer asks
@@ -417,6 +449,8 @@ struct Peer::Impl final : SequencerHost {
   }
 
   void ship_state(std::uint64_t gseq, const std::vector<std::uint32_t>& targets) {
+    std::optional<KeptAlive> kept;
+    keep_alive_if(true, kept);
     joining.ship(gseq, targets, session.steps(), Snapshot{session.encode_state(), leases.encode()});
   }
 
@@ -425,7 +459,11 @@ struct Peer::Impl final : SequencerHost {
     auto offered = joining.take();
     if (!offered) return;
     const auto& [gseq, snapshot] = *offered;
-    session.perform({0, 0, op::Checkpoint{std::make_shared<const std::string>(snapshot.state)}});
+    {
+      std::optional<KeptAlive> kept;
+      keep_alive_if(true, kept);
+      session.perform({0, 0, op::Checkpoint{std::make_shared<const std::string>(snapshot.state)}});
+    }
     leases.decode(snapshot.leases);
     leases.clear_refused();
     log.start_after(gseq);
@@ -480,7 +518,11 @@ struct Peer::Impl final : SequencerHost {
       if (opt.real_time && !behind && now() + 1e-9 < next_step_time) break;
       if (seq && slow_steps() && shipped_at >= 0 && opt.clock() - shipped_at < kRepairWindow) break;
       const double step_began = opt.clock ? opt.clock() : 0;
-      session.step(this);
+      {
+        std::optional<KeptAlive> kept;
+        keep_alive_if(step_seconds == 0 || step_seconds > opt.heartbeat_seconds, kept);
+        session.step(this);
+      }
       if (opt.clock) {
         const double took = std::max(opt.clock() - step_began, 1.0 / session.frame_rate());
         step_seconds = step_seconds > 0 ? 0.75 * step_seconds + 0.25 * took : took;

@@ -44,14 +44,36 @@ class PeerRunner::Transport : public PeerTransport {
     }
     wake_.notify_one();
   }
+  void keep_alive(std::vector<std::string> sealed, double every) override {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      alive_.assign(std::make_move_iterator(sealed.begin()), std::make_move_iterator(sealed.end()));
+      every_ = std::chrono::duration<double>(every);
+      next_alive_ = Clock::now() + std::chrono::duration_cast<Clock::duration>(every_);
+    }
+    wake_.notify_one();
+  }
 
  private:
+  using Clock = std::chrono::steady_clock;
   void run() {
     std::deque<std::string> batch;
     for (;;) {
       {
         std::unique_lock<std::mutex> lock(mutex_);
-        wake_.wait(lock, [&] { return closing_ || !queue_.empty(); });
+        // Queued messages at once; a keep-alive when it is due (the peer's thread is in a long step).
+        for (;;) {
+          if (closing_ || !queue_.empty()) break;
+          if (alive_.empty()) {
+            wake_.wait(lock);
+          } else if (Clock::now() >= next_alive_) {
+            queue_.push_back(std::move(alive_.front()));
+            alive_.pop_front();
+            next_alive_ += std::chrono::duration_cast<Clock::duration>(every_);
+          } else {
+            wake_.wait_until(lock, next_alive_);
+          }
+        }
         if (queue_.empty()) return;
         batch.swap(queue_);
       }
@@ -70,6 +92,9 @@ class PeerRunner::Transport : public PeerTransport {
   std::mutex mutex_;
   std::condition_variable wake_;
   std::deque<std::string> queue_;
+  std::deque<std::string> alive_;  // keep-alives for a long step, one due at next_alive_
+  std::chrono::duration<double> every_{0};
+  Clock::time_point next_alive_;
   bool closing_ = false;
   std::thread thread_;
 };

@@ -7,6 +7,7 @@
 #include "kiji/peer.h"
 #include "kiji/session.h"
 #include "support/peer_sim.h"
+#include "net/peer_messages.h"
 #include "net/peer_wire.h"
 #include "support/test_shapes.h"
 #include "support/test_strokes.h"
@@ -450,6 +451,56 @@ TEST(Peers, ForgedReplayedCutOrOversizedMessagesAreDroppedAndCounted) {
   g.run_until(2.0);
   EXPECT_EQ(g.nodes[1].session->steps(), 90u);
   EXPECT_EQ(victim.state_hash(), g.nodes[0].peer->state_hash());
+}
+
+namespace {
+// A transport that keeps what it is given: messages sent, and the keep-alives for each long step.
+struct Keeping : PeerTransport {
+  std::vector<std::string> sent;
+  std::vector<std::pair<std::vector<std::string>, double>> alive;
+  void send(const std::string& bytes) override { sent.push_back(bytes); }
+  void keep_alive(std::vector<std::string> sealed, double every) override { alive.emplace_back(std::move(sealed), every); }
+};
+}  // namespace
+
+// A peer's thread is silent while it steps, and a step longer than silence_seconds (a large
+// garment on a slow machine, a sanitizer build) made the others take it for gone. Before such a
+// step it leaves its transport heartbeats to send during it, each sealed with its own number (a
+// copy would be dropped as a replay), and takes them back after.
+TEST(Peers, AStepLongerThanAHeartbeatLeavesHeartbeatsToSendWhileItRuns) {
+  using kiji::detail::PeerWire;
+  using kiji::detail::WireVerdict;
+  Session session{plugins()};
+  host_garment(session);
+  Keeping transport;
+  PeerOptions o;
+  o.key = kKey;
+  o.host = true;
+  double clock = 0;
+  o.clock = [&] { return clock += 0.25; };  // each reading a quarter of a second on: long steps
+  Peer peer(session, transport, o);
+  for (int k = 0; k < 12; ++k) peer.tick(clock);
+  ASSERT_GE(session.steps(), 4u);
+  // A step's keep-alives, then none once it is done, for each step after the first measured one.
+  ASSERT_GE(transport.alive.size(), 4u);
+  PeerWire other(kKey, 999);
+  std::set<std::uint64_t> numbers;
+  for (std::size_t k = 0; k < transport.alive.size(); ++k) {
+    const auto& [sealed, every] = transport.alive[k];
+    if (k % 2 == 1) {
+      EXPECT_TRUE(sealed.empty()) << "taken back after the step";
+      continue;
+    }
+    EXPECT_NEAR(every, o.silence_seconds / 3, 1e-12);
+    EXPECT_GE(sealed.size(), 2u);
+    for (const std::string& m : sealed) {
+      kiji::detail::PeerEnvelope env;
+      ASSERT_EQ(other.open(m, env), WireVerdict::Ok) << "a keep-alive another peer would not take";
+      EXPECT_EQ(env.type, kiji::detail::kHeartbeat);
+      EXPECT_EQ(env.sender, peer.id());
+      EXPECT_TRUE(numbers.insert(env.seq).second) << "two keep-alives with one number";
+    }
+  }
 }
 
 // A burst of repaired chunks can arrive shuffled by hundreds of messages: each is taken once, and

@@ -26,6 +26,8 @@ namespace {
 
 const std::string kKey = "a shared secret for the tests, 32 bytes or so";
 
+void host_garment(Session& s);
+
 // N peers on one simulated network, stepped a millisecond at a time.
 struct Group {
   SimNetwork net;
@@ -68,6 +70,31 @@ struct Group {
         if (nodes[i].started && net.alive(i)) nodes[i].peer->tick(net.now());
       if (each_ms) each_ms();
     }
+  }
+
+  // Node 0 hosts its garment (host_garment), node 1 joins; the network runs until `t`.
+  void host_and_join(double t) {
+    host_garment(*nodes[0].session);
+    start(0);
+    start(1);
+    run_until(t);
+  }
+
+  // Node n's user draws a pinch stroke, an event about every frame on its session's clock, while
+  // the network runs until `t` (`each` after each event); the events drawn.
+  std::size_t draw(int n, const Stroke& stroke, double t, const std::function<void()>& each = {}) {
+    Session& s = *nodes[n].session;
+    const ParamSet params = s.params_for("pinch");
+    std::size_t i = 0;
+    run_until(t, [&] {
+      if (i < stroke.size() && std::fmod(net.now(), 0.017) < 0.001) {
+        ToolEvent e = stroke[i++];
+        e.time = s.time();
+        s.apply("pinch", e, &params);
+        if (each) each();
+      }
+    });
+    return i;
   }
 
   std::vector<int> live() const {
@@ -232,10 +259,7 @@ TEST(Peers, ManySeedsOfEightPeersUnderLossEndBitIdentical) {
 TEST(Peers, TwoUsersNeverHoldTheSameClothAndTheRefusedOneIsTold) {
   Group g(7, {}, 2);
   g.base.stop_step = 150;
-  host_garment(*g.nodes[0].session);
-  g.start(0);
-  g.start(1);
-  g.run_until(0.3);
+  g.host_and_join(0.3);
   ASSERT_TRUE(g.nodes[1].peer->joined());
   // Both grab the same corner at once: the order gives it to one, the other is refused.
   Session& a = *g.nodes[0].session;
@@ -270,10 +294,7 @@ TEST(Peers, TwoUsersNeverHoldTheSameClothAndTheRefusedOneIsTold) {
 TEST(Peers, ALateJoinerGetsTheStateAndIsInStep) {
   Group g(11, {0.1, 0.05, 0.0002, 0.004}, 3);
   g.base.stop_step = 170;
-  host_garment(*g.nodes[0].session);
-  g.start(0);
-  g.start(1);
-  g.run_until(0.3);
+  g.host_and_join(0.3);
   Session& b = *g.nodes[1].session;
   b.run("pinch", b.params_for("pinch"), line(Vec3(0.3, 0.5, 0), Vec3(0.3, 0.6, 0.1), 8, b.time()));
   g.run_until(1.5);
@@ -295,23 +316,10 @@ TEST(Peers, AStrokeGoingOnPastTheSharedStopIsGivenUpThereAndSaid) {
   // never be applied anywhere: they are given up and said, instead of waiting for ever.
   Group g(3, {}, 2);
   g.base.stop_step = 60;
-  host_garment(*g.nodes[0].session);
-  g.start(0);
-  g.start(1);
-  g.run_until(0.3);
+  g.host_and_join(0.3);
   ASSERT_TRUE(g.nodes[1].peer->joined());
-  Session& b = *g.nodes[1].session;
-  const ParamSet params = b.params_for("pinch");
   const Stroke stroke = line(Vec3(0.3, 0.5, 0), Vec3(0.3, 0.6, 0.1), 60, 0);
-  std::size_t i = 0;
-  g.run_until(2.5, [&] {
-    if (i < stroke.size() && std::fmod(g.net.now(), 0.017) < 0.001) {
-      ToolEvent e = stroke[i++];
-      e.time = b.time();
-      b.apply("pinch", e, &params);
-    }
-  });
-  ASSERT_EQ(i, stroke.size());
+  ASSERT_EQ(g.draw(1, stroke, 2.5), stroke.size());
   for (int n : {0, 1}) {
     EXPECT_EQ(g.nodes[n].session->steps(), 60u);
     EXPECT_EQ(g.nodes[n].peer->pending(), 0u) << "peer " << n << " still waits for changes that cannot come";
@@ -334,34 +342,20 @@ TEST(Peers, APeerTakenForGoneSaysWhatWasNotAppliedAndJoinsAgain) {
   // sent again for ever and applied nowhere), and it joins again: its next stroke is applied.
   Group g(5, {}, 2);
   g.base.stop_step = 400;
-  host_garment(*g.nodes[0].session);
-  g.start(0);
-  g.start(1);
-  g.run_until(0.3);
+  g.host_and_join(0.3);
   ASSERT_TRUE(g.nodes[1].peer->joined());
   g.nodes[1].started = false;  // it neither hears nor speaks
   g.run_until(1.0);
   g.nodes[1].started = true;
-  Session& b = *g.nodes[1].session;
-  const ParamSet params = b.params_for("pinch");
   const std::uint64_t checkpoints_before = g.nodes[0].peer->stats().checkpoints;
   bool back_before_its_end = false;
-  auto draw = [&](const Stroke& stroke, double until) {
-    std::size_t i = 0;
-    g.run_until(until, [&] {
-      if (i < stroke.size() && std::fmod(g.net.now(), 0.017) < 0.001) {
-        ToolEvent e = stroke[i++];
-        e.time = b.time();
-        b.apply("pinch", e, &params);
-        back_before_its_end = g.nodes[1].peer->joined() && g.nodes[0].peer->stats().checkpoints > checkpoints_before;
-      }
-    });
-    ASSERT_EQ(i, stroke.size());
-  };
   // Drawn from its return for a third of a second: past the moment it has joined again (the rest
   // of a stroke cancelled everywhere is given up too, not refused event by event).
   const Stroke unseen = line(Vec3(0.3, 0.5, 0), Vec3(0.3, 0.6, 0.1), 20, 0);
-  draw(unseen, 1.6);
+  const auto note_if_back = [&] {
+    back_before_its_end = g.nodes[1].peer->joined() && g.nodes[0].peer->stats().checkpoints > checkpoints_before;
+  };
+  ASSERT_EQ(g.draw(1, unseen, 1.6, note_if_back), unseen.size());
   EXPECT_TRUE(back_before_its_end) << "the stroke was to go on after it had joined again";
   auto strokes_of_peer1 = [&](int node) {
     std::size_t n = 0;
@@ -381,7 +375,7 @@ TEST(Peers, APeerTakenForGoneSaysWhatWasNotAppliedAndJoinsAgain) {
   ASSERT_TRUE(g.nodes[1].peer->joined()) << "it did not join again";
 
   const Stroke seen = line(Vec3(-0.3, 0.5, 0), Vec3(-0.35, 0.6, 0.1), 6, 0);
-  draw(seen, 2.4);
+  ASSERT_EQ(g.draw(1, seen, 2.4), seen.size());
   g.run_until(8.0);
   EXPECT_EQ(strokes_of_peer1(0), seen.size()) << "the stroke drawn after it joined again";
   for (int n : {0, 1}) {
@@ -396,10 +390,7 @@ TEST(Peers, APeerTakenForGoneSaysWhatWasNotAppliedAndJoinsAgain) {
 TEST(Peers, ADisagreementIsFoundReportedAndHealed) {
   Group g(5, {}, 2);
   g.base.stop_step = 120;
-  host_garment(*g.nodes[0].session);
-  g.start(0);
-  g.start(1);
-  g.run_until(0.5);
+  g.host_and_join(0.5);
   ASSERT_TRUE(g.nodes[1].peer->converged());
   // A change that bypasses the order (what a bug, or a bit flipped in memory, would do).
   Garment& wrong = g.nodes[1].session->garment(0);
@@ -415,10 +406,7 @@ TEST(Peers, ADisagreementIsFoundReportedAndHealed) {
 TEST(Peers, ForgedReplayedCutOrOversizedMessagesAreDroppedAndCounted) {
   Group g(3, {}, 2);
   g.base.stop_step = 90;
-  host_garment(*g.nodes[0].session);
-  g.start(0);
-  g.start(1);
-  g.run_until(0.3);
+  g.host_and_join(0.3);
   Peer& victim = *g.nodes[1].peer;
   const std::string genuine = g.net.sent().back();
   // Replayed: a message already seen.

@@ -65,10 +65,10 @@ class PeerTransport {
  public:
   virtual ~PeerTransport() = default;
   virtual void send(const std::string& bytes) = 0;
-  // While a step longer than a heartbeat runs, messages sealed before it (heartbeats, each with
-  // its own number) for the transport to send one every `every` seconds, so that the others still
-  // hear this peer; called again with none when the step is done. A transport that sends only
-  // from the peer's own thread ignores them (its peer is silent for the step, as before).
+  // While the peer's thread is busy longer than a heartbeat (a step, a state loaded or shipped),
+  // messages sealed before (heartbeats, each with its own number) for the transport to send one
+  // every `every` seconds, so that the others still hear this peer; called again with none when
+  // the work is done. A transport that sends only from the peer's own thread ignores them.
   virtual void keep_alive(std::vector<std::string> sealed, double every) {
     (void)sealed;
     (void)every;

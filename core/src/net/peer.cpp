@@ -582,9 +582,6 @@ struct Peer::Impl final : SequencerHost {
     transfer.send_chunks();
   }
 
-  // At the shared stop nothing ordered after it is applied anywhere: this peer's proposals ordered
-  // past it, and those still unordered once every live peer agrees there, would wait for ever (a
-  // stroke longer than the session). They are given up, and said as one refusal.
   // Taken for gone, it asks to join again once its last proposals can no longer be on the way (the
   // sequencer, taking it back, would order them), and again while no checkpoint for it has come.
   void ask_back() {
@@ -614,6 +611,9 @@ struct Peer::Impl final : SequencerHost {
     refusals[gone_refusal].reason = why.str();
   }
 
+  // At the shared stop nothing ordered after it is applied anywhere: this peer's proposals ordered
+  // past it, and those still unordered once every live peer agrees there, would wait for ever (a
+  // stroke longer than the session). They are given up, and said as one refusal.
   void give_up_after_stop(std::uint64_t stop_at) {
     const bool all_agree = audit.agree_at(stop_at);
     std::size_t dropped = 0;
@@ -663,7 +663,8 @@ Peer::~Peer() { impl_->session.clear_gate(); }
 void Peer::on_local(const Operation& op) {
   Impl& m = *impl_;
   if (const auto* input = std::get_if<op::ToolInput>(&op.data)) {
-    if (input->event.phase == Phase::Begin) m.stroke_cut_off = false;
+    // A stroke begun while taken for gone is given up whole, as is the rest of one it cut off.
+    if (input->event.phase == Phase::Begin) m.stroke_cut_off = m.taken_for_gone;
     else if (m.stroke_cut_off) return m.give_up_gone(1);
   }
   PeerOp pop;

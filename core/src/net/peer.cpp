@@ -30,7 +30,6 @@ constexpr double kRepairWindow = 0.15;
 // A peer taken for gone waits this long before it asks to join again: longer than any message
 // it sent before it knew is on the way.
 constexpr double kRejoinAfter = 0.2;
-constexpr double kAskBackEvery = 0.1;
 constexpr int kMostKeepAlives = 64;
 
 ToolEvent cancel_event(double time) {
@@ -105,18 +104,20 @@ struct Peer::Impl final : SequencerHost {
   };
   std::map<std::uint64_t, Proposal> pending;
   std::uint64_t next_pseq = 1;
-  std::size_t given_up_after_stop = 0;  // counted in one refusal, refusals[given_up_refusal]
-  std::size_t given_up_refusal = 0;
+  // Changes given up in bulk, each kind said as one refusal that counts them.
+  struct Tally {
+    std::size_t refusal = 0, count = 0;  // refusals[refusal] says `count` changes
+  };
+  Tally after_stop;
   // The sequencer took this peer for gone (it heard nothing from it for silence_seconds: a peer
   // too slow to answer, or paused) and orders nothing of it after, until it asks to join again:
-  // its changes until it asks are given up, counted in one refusal, refusals[gone_refusal]. Its
+  // its changes until it asks are given up, counted in one refusal (tally `gone`). Its
   // state is still the shared one (it applies every order), so it asks with a join, which the
   // sequencer answers as any join, with a checkpoint and its state; asked again until that comes.
   bool taken_for_gone = false, rejoining = false;
   bool stroke_cut_off = false;  // the stroke its user was drawing then, cancelled everywhere: given up to its end
-  double gone_at = -1, asked_back_at = -1;
-  std::size_t given_up_gone = 0;
-  std::size_t gone_refusal = 0;
+  double gone_at = -1;
+  Tally gone;
 
   // --- pacing and presence ---
   double step_seconds = 0;   // a step's wall time from step to step (a moving mean; 0: unknown)
@@ -154,9 +155,11 @@ struct Peer::Impl final : SequencerHost {
   // state loaded or shipped: what they say stays true until it ends), one every third of the
   // silence that makes a peer gone, for eight times the last step's length (a step of unknown
   // length, the first after a join rebuilds the solver: for the most); taken back after.
+  // Only in real time, where the work may outlast a heartbeat (`long_work`).
   class KeptAlive {
    public:
-    explicit KeptAlive(Impl& m) : m_(m) {
+    KeptAlive(Impl& m, bool long_work) : m_(m), on_(long_work && m.opt.clock) {
+      if (!on_) return;
       const double every = m.opt.silence_seconds / 3;
       const int count = m.step_seconds > 0 ? static_cast<int>(std::ceil(8 * m.step_seconds / every)) : kMostKeepAlives;
       const std::string body = encode(m.heartbeat_now());
@@ -165,17 +168,16 @@ struct Peer::Impl final : SequencerHost {
         sealed.push_back(m.wire->seal(kHeartbeat, m.sequencer.epoch(), body));
       m.transport.keep_alive(std::move(sealed), every);
     }
-    ~KeptAlive() { m_.transport.keep_alive({}, 0); }
+    ~KeptAlive() {
+      if (on_) m_.transport.keep_alive({}, 0);
+    }
     KeptAlive(const KeptAlive&) = delete;
     KeptAlive& operator=(const KeptAlive&) = delete;
 
    private:
     Impl& m_;
+    const bool on_;
   };
-  // Only in real time, where the work may outlast a heartbeat.
-  void keep_alive_if(bool long_work, std::optional<KeptAlive>& kept) {
-    if (long_work && opt.clock) kept.emplace(*this);
-  }
 
   Heartbeat heartbeat_now() {
     Heartbeat h;
@@ -434,7 +436,7 @@ struct Peer::Impl final : SequencerHost {
           // Everything of this peer ordered before its departure is applied by now: what is left
           // was never ordered, and never will be. Its numbers go to the proposals after it joins
           // again (the sequencer takes each origin's proposals in an unbroken run).
-          if (!taken_for_gone) given_up_gone = 0;
+          if (!taken_for_gone) gone = {};
           taken_for_gone = true;
           stroke_cut_off = true;
           rejoining = false;
@@ -449,8 +451,7 @@ struct Peer::Impl final : SequencerHost {
   }
 
   void ship_state(std::uint64_t gseq, const std::vector<std::uint32_t>& targets) {
-    std::optional<KeptAlive> kept;
-    keep_alive_if(true, kept);
+    const KeptAlive kept(*this, true);
     joining.ship(gseq, targets, session.steps(), Snapshot{session.encode_state(), leases.encode()});
   }
 
@@ -460,8 +461,7 @@ struct Peer::Impl final : SequencerHost {
     if (!offered) return;
     const auto& [gseq, snapshot] = *offered;
     {
-      std::optional<KeptAlive> kept;
-      keep_alive_if(true, kept);
+      const KeptAlive kept(*this, true);
       session.perform({0, 0, op::Checkpoint{std::make_shared<const std::string>(snapshot.state)}});
     }
     leases.decode(snapshot.leases);
@@ -519,8 +519,7 @@ struct Peer::Impl final : SequencerHost {
       if (seq && slow_steps() && shipped_at >= 0 && opt.clock() - shipped_at < kRepairWindow) break;
       const double step_began = opt.clock ? opt.clock() : 0;
       {
-        std::optional<KeptAlive> kept;
-        keep_alive_if(step_seconds == 0 || step_seconds > opt.heartbeat_seconds, kept);
+        const KeptAlive kept(*this, step_seconds == 0 || step_seconds > opt.heartbeat_seconds);
         session.step(this);
       }
       if (opt.clock) {
@@ -591,24 +590,28 @@ struct Peer::Impl final : SequencerHost {
       taken_for_gone = false;
       rejoining = true;
     }
-    if (rejoining && (asked_back_at < 0 || now() - asked_back_at >= kAskBackEvery)) {
-      send(kJoin, encode_name(opt.name));
-      asked_back_at = now();
+    if (rejoining) joining.ask();
+  }
+
+  // Adds `changes` to a tally, opening its refusal (at this step) with the first.
+  void give_up(Tally& t, std::size_t changes, const std::function<std::string(const Tally&)>& reason) {
+    if (changes == 0) return;
+    if (t.count == 0) {
+      t.refusal = refusals.size();
+      refusals.push_back({session.steps(), {}});
     }
+    t.count += changes;
+    refusals[t.refusal].reason = reason(t);
   }
 
   void give_up_gone(std::size_t changes) {
-    if (changes == 0) return;
-    if (given_up_gone == 0) {
-      gone_refusal = refusals.size();
-      refusals.push_back({session.steps(), {}});
-    }
-    given_up_gone += changes;
-    std::ostringstream why;
-    why << "the session took this peer for gone at step " << refusals[gone_refusal].step << " (nothing was heard "
-        << "from it for " << opt.silence_seconds << " s): " << given_up_gone
-        << " change(s) made until it had joined again, or in the stroke it cut off, were not applied";
-    refusals[gone_refusal].reason = why.str();
+    give_up(gone, changes, [&](const Tally& t) {
+      std::ostringstream why;
+      why << "the session took this peer for gone at step " << refusals[t.refusal].step << " (nothing was heard "
+          << "from it for " << opt.silence_seconds << " s): " << t.count
+          << " change(s) made until it had joined again, or in the stroke it cut off, were not applied";
+      return why.str();
+    });
   }
 
   // At the shared stop nothing ordered after it is applied anywhere: this peer's proposals ordered
@@ -631,15 +634,10 @@ struct Peer::Impl final : SequencerHost {
         ++p;
       }
     }
-    if (!dropped) return;
-    if (given_up_after_stop == 0) {
-      given_up_refusal = refusals.size();
-      refusals.push_back({session.steps(), {}});
-    }
-    given_up_after_stop += dropped;
-    refusals[given_up_refusal].reason = std::to_string(given_up_after_stop) +
-                                        " change(s) came after the shared clock stopped at step " +
-                                        std::to_string(stop_at) + " and were not applied";
+    give_up(after_stop, dropped, [&](const Tally& t) {
+      return std::to_string(t.count) + " change(s) came after the shared clock stopped at step " +
+             std::to_string(stop_at) + " and were not applied";
+    });
   }
 };
 

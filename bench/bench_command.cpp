@@ -82,6 +82,11 @@ struct ToolRate {
   // The largest edge strain (|length / rest - 1|) of the garment during a stroke and once it has ended
   // (half a second later): the median over the strokes.
   double max_strain_during = 0, max_strain_after = 0;
+  // The steps that rebuilt the solver after the row's strokes changed the garment's topology (a cut,
+  // a tear, a seam), during each stroke and in the half second after it, and the median time a
+  // rebuild took (StepReport::ms.rebuild).
+  int topology_edits = 0;
+  double topology_edit_ms = 0;
 };
 
 // A step's time by phase, as the solver reports it (StepReport::ms), with the share of the step
@@ -185,7 +190,7 @@ std::vector<ToolRate> tool_rates(const Body& body, int vertices, int frames, int
     const bool local = name == "pinch_local", landing = name == "pinch_landing";
     const std::string tool = (local || landing) ? "pinch" : name;
     std::vector<ToolRate> made;
-    std::vector<double> during, after;
+    std::vector<double> during, after, rebuilds;
     for (const auto& offset : kStrokeOffsets) {
       if (static_cast<int>(made.size()) == strokes) break;
       Session s(tools);
@@ -233,6 +238,7 @@ std::vector<ToolRate> tool_rates(const Body& body, int vertices, int frames, int
         s.apply(tool, e, &p);  // advances the simulation one step, then the tool acts
         step_s += seconds_since(t0);
         add_times(times, s.solver(0).last_step().ms, 1.0 / (frames + 1));
+        if (s.solver(0).last_step().ms.rebuild > 0) rebuilds.push_back(s.solver(0).last_step().ms.rebuild);
         const auto t1 = Clock::now();
         const Garment& gg = s.garment(0);
         render({&gg}, &body, cam, 320, 240);
@@ -245,7 +251,11 @@ std::vector<ToolRate> tool_rates(const Body& body, int vertices, int frames, int
           moving += (s.garment(0).position(v) - last).norm() <= kLocalRadius;
       const double asleep = double(s.solver(0).measure(s.garment(0)).sleeping) /
                             double(std::max<std::size_t>(1, s.garment(0).mesh().number_of_vertices()));
-      for (int k = 0; k < 30; ++k) s.step();  // half a second after the stroke (not timed)
+      for (int k = 0; k < 30; ++k) {  // half a second after the stroke (not timed)
+        s.step();
+        // A cut made at the stroke's end, or a seam sewn as its tacks meet, is built into the solver here.
+        if (s.solver(0).last_step().ms.rebuild > 0) rebuilds.push_back(s.solver(0).last_step().ms.rebuild);
+      }
       during.push_back(strain_during);
       after.push_back(max_strain(s.garment(0)));
       ToolRate r;
@@ -269,6 +279,8 @@ std::vector<ToolRate> tool_rates(const Body& body, int vertices, int frames, int
     for (const ToolRate& m : made) r.stroke_steps_per_second.push_back(m.steps_per_second);
     r.max_strain_during = median(during);
     r.max_strain_after = median(after);
+    r.topology_edits = static_cast<int>(rebuilds.size());
+    r.topology_edit_ms = median(rebuilds);
     out.push_back(r);
   }
   return out;
@@ -636,13 +648,19 @@ int bench_command(const std::vector<std::string>& argv) {
       rate["strokes"] = r.stroke_steps_per_second;
       rate["max_strain_during"] = r.max_strain_during;
       rate["max_strain_after"] = r.max_strain_after;
+      rate["topology_edits"] = r.topology_edits;
+      if (r.topology_edits > 0) rate["topology_edit_ms"] = r.topology_edit_ms;
       row[r.tool] = rate;
       say("  %s %.1f/%.1f", r.tool.c_str(), r.steps_per_second, r.frames_per_second);
     }
     say("\n");
-    for (const auto& r : rates)
-      say("      %-13s a step %s; %.0f%% asleep at the end; largest strain %.3f during, %.3f after\n", r.tool.c_str(),
+    for (const auto& r : rates) {
+      say("      %-13s a step %s; %.0f%% asleep at the end; largest strain %.3f during, %.3f after", r.tool.c_str(),
           phases_text(r.ms).c_str(), 100 * r.asleep, r.max_strain_during, r.max_strain_after);
+      if (r.topology_edits > 0)
+        say("; %d topology edits, %.1f ms each (topology_edit_ms, the median)", r.topology_edits, r.topology_edit_ms);
+      say("\n");
+    }
     table.push_back(row);
   }
 

@@ -4,6 +4,7 @@
 //   solver_bench                 the table
 //   solver_bench drape [n [print_every [self_collision [substeps]]]]
 //   solver_bench hash [n [steps]]   a landing's end state, hashed (compare KIJI_THREADS settings)
+//   solver_bench prepare [n [reps]] building a fresh solver's arrays for a cloth landed on the body 1 s
 #include "kiji/body.h"
 #include "kiji/pattern.h"
 #include "kiji/solver.h"
@@ -75,6 +76,23 @@ int main(int argc, char** argv) {
     }
     std::printf("%.1f ms per step\n",
                 std::chrono::duration<double, std::milli>(Clock::now() - t0).count() / 180);
+    return 0;
+  }
+  if (argc > 1 && std::strcmp(argv[1], "prepare") == 0) {  // solver_bench prepare [n [reps]]
+    const int n = argc > 2 ? std::atoi(argv[2]) : 141, reps = argc > 3 ? std::atoi(argv[3]) : 5;
+    Garment g = cloth(n, body.bounds());
+    {
+      Solver solver{SolverParams{}};
+      solver.set_body(&body);
+      for (int i = 0; i < 60; ++i) solver.step(g, 1.0 / 60);
+    }
+    for (int r = 0; r < reps; ++r) {
+      Solver solver{SolverParams{}};
+      solver.set_body(&body);
+      const auto t0 = Clock::now();
+      solver.prepare(g);
+      std::printf("%d vertices: prepare %.2f ms\n", n * n, std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    }
     return 0;
   }
   if (argc > 1 && std::strcmp(argv[1], "hash") == 0) {  // solver_bench hash [n [steps]]

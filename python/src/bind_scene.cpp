@@ -155,10 +155,11 @@ void bind_scene(py::module_& m) {
             return py::dict(py::arg("total") = r.ms.total, py::arg("solve") = r.ms.solve,
                             py::arg("strain_limit") = r.ms.strain_limit, py::arg("self_search") = r.ms.self_search,
                             py::arg("self_resolve") = r.ms.self_resolve, py::arg("body") = r.ms.body,
-                            py::arg("shared") = r.ms.shared);
+                            py::arg("rebuild") = r.ms.rebuild, py::arg("shared") = r.ms.shared);
           },
           "where the step's time went, in milliseconds of wall clock: total, by phase (solve, strain_limit, "
-          "self_search, self_resolve, body), and shared (in loops shared between threads; total - shared is what "
+          "self_search, self_resolve, body), rebuild (the solver's arrays built again after a topology edit, "
+          "in the first step after it), and shared (in loops shared between threads; total - shared is what "
           "more cores cannot shorten)")
       .def("__repr__", [](const StepReport& r) {
         return "StepReport(self_gathers=" + std::to_string(r.self_gathers) + ", self_pairs=" +

@@ -116,6 +116,9 @@ struct StepReport {
     double self_search = 0;   // gathering self-collision pairs
     double self_resolve = 0;  // keeping them apart
     double body = 0;          // body candidates, contacts, and vertices escaping their boxes
+    // Building the arrays (constraints, colouring, long-range limits, collision trees) at the start
+    // of the step: after a topology edit (a cut, a tear, a seam) or for a new garment; else zero.
+    double rebuild = 0;
     double shared = 0;
   } ms;
 };

@@ -127,6 +127,36 @@ def test_cut_along_the_pattern_crosses_a_pleat_a_walk_keeps_to_its_layer():
     assert off > 0.01, "walked over the surface, the line keeps to the bottom layer under the pleat"
 
 
+def test_a_closed_stroke_drawn_in_a_view_cuts_out_every_layer_it_encloses_as_seen():
+    # The pleated cloth seen from above (rays along -z, as a mouse in a view gives them), an
+    # ellipse drawn round the pleat: where the stroke crosses the pleat's edge it goes from the top
+    # layer to the bottom one as seen. What it encloses as seen is cut out through the three layers.
+    cloth = kiji.rectangle(0.5, 0.4, spacing=0.01)
+    p = cloth.positions.copy()
+    x = p[:, 0].copy()
+    p[:, 0] = np.where(x < 0.2, x, np.where(x < 0.25, 0.4 - x, x - 0.1))
+    p[:, 2] = np.where(x < 0.2, 0.0, np.where(x < 0.25, 0.004, 0.008))
+    cloth.positions = p
+    s = kiji.Session()
+    s.solver_params = kiji.SolverParams(gravity=(0, 0, 0))
+    s.simulating = False
+    g = s.add_garment(cloth)
+    a = np.linspace(0, 2 * np.pi, 61)
+    pointer = np.c_[0.2 + 0.1 * np.cos(a), 0.2 + 0.08 * np.sin(a), np.full(61, 0.5)]
+    s.cut(pointer, rays=(0, 0, -1))
+    assert g.is_valid() and g.piece_count == 2 and len(g.border_loops()) == 3
+    # As seen, the faces more than a centimetre and a half inside the ellipse are one piece, on every
+    # layer, and those as far outside the other.
+    seen = np.hypot((g.positions[:, 0] - 0.2) / 0.1, (g.positions[:, 1] - 0.2) / 0.08)
+    piece = g.pieces()
+    inside = (seen[g.faces] < 1 - 0.015 / 0.08).all(axis=1)
+    outside = (seen[g.faces] > 1 + 0.015 / 0.08).all(axis=1)
+    assert len(set(piece[inside])) == 1 and len(set(piece[outside])) == 1
+    assert piece[inside][0] != piece[outside][0]
+    layers = np.round(g.positions[g.faces[inside].ravel(), 2], 3)
+    assert {0.0, 0.004, 0.008} <= set(layers), "the cloth cut out is the three layers'"
+
+
 def test_cut_edges_mode_of_earlier_builds_keeps_every_face():
     s, g = flat_session(1.0, 1.0, 21, 21)
     s.simulating = False

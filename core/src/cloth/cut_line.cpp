@@ -650,6 +650,26 @@ class Knife {
     spread(out, [&](Index w) { return !inside_[w]; });
     for (Index v = 0; v < s_.vertices.size(); ++v)
       if (s_.vertices[v].alive && !out[v] && !inc[v].empty()) inside_[v] = 1;
+    // The line passes each vertex's ring once: where the sides change more than twice round a
+    // vertex (an arm of the outside between two of the inside), the line would touch itself there
+    // and open a sliver into a piece of its own. That ring goes inside.
+    for (int round = 0; round < 16; ++round) {
+      std::vector<Index> pinched;
+      for (Index v = 0; v < s_.vertices.size(); ++v) {
+        int changes = 0;
+        for (Index f : inc[v]) {
+          Index other[2], k = 0;
+          for (Index w : s_.faces[f])
+            if (w != v) other[k++] = w;
+          changes += inside_[other[0]] != inside_[other[1]];
+        }
+        if (changes > 2) pinched.push_back(v);
+      }
+      if (pinched.empty()) break;
+      for (Index v : pinched)
+        for (Index f : inc[v])
+          for (Index w : s_.faces[f]) inside_[w] = 1;
+    }
     return true;
   }
 
@@ -1329,3 +1349,4 @@ std::vector<Vec3> trace_line(const Garment& g, const KnifeLine& line) {
 }
 
 }  // namespace kiji
+

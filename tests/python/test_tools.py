@@ -94,10 +94,9 @@ def test_cut_a_stroke_across_a_rectangle_makes_two_pieces_along_its_line():
     assert len(inner) >= 40 and all(abs(v[1] - 0.52) < 0.25 * 0.05 for v in inner)
 
 
-def _pleated_cut(follow):
-    """A 0.5 x 0.4 m cloth with a pleat (on to x = 0.2 m, back under itself to 0.15, on again: three
-    layers 4 mm apart), cut along an ellipse of its pattern through the cloth points on it; returns
-    the garment and how far the opening's border lies from that ellipse (metres of pattern)."""
+def _pleated():
+    """A still session with a 0.5 x 0.4 m cloth with a pleat (on to x = 0.2 m, back under itself to
+    0.15, on again: three layers 4 mm apart, the last on top as seen from +z)."""
     cloth = kiji.rectangle(0.5, 0.4, spacing=0.01)
     p = cloth.positions.copy()
     x = p[:, 0].copy()
@@ -107,7 +106,13 @@ def _pleated_cut(follow):
     s = kiji.Session()
     s.solver_params = kiji.SolverParams(gravity=(0, 0, 0))
     s.simulating = False
-    g = s.add_garment(cloth)
+    return s, s.add_garment(cloth)
+
+
+def _pleated_cut(follow):
+    """The pleated cloth cut along an ellipse of its pattern through the cloth points on it; returns
+    the garment and how far the opening's border lies from that ellipse (metres of pattern)."""
+    s, g = _pleated()
     a = np.linspace(0, 2 * np.pi, 49)
     ellipse = np.c_[0.22 + 0.14 * np.cos(a), 0.2 + 0.1 * np.sin(a)]
     points, _ = point_at_uv(g, ellipse / g.pattern_scale)
@@ -131,16 +136,7 @@ def test_a_closed_stroke_drawn_in_a_view_cuts_out_every_layer_it_encloses_as_see
     # The pleated cloth seen from above (rays along -z, as a mouse in a view gives them), an
     # ellipse drawn round the pleat: where the stroke crosses the pleat's edge it goes from the top
     # layer to the bottom one as seen. What it encloses as seen is cut out through the three layers.
-    cloth = kiji.rectangle(0.5, 0.4, spacing=0.01)
-    p = cloth.positions.copy()
-    x = p[:, 0].copy()
-    p[:, 0] = np.where(x < 0.2, x, np.where(x < 0.25, 0.4 - x, x - 0.1))
-    p[:, 2] = np.where(x < 0.2, 0.0, np.where(x < 0.25, 0.004, 0.008))
-    cloth.positions = p
-    s = kiji.Session()
-    s.solver_params = kiji.SolverParams(gravity=(0, 0, 0))
-    s.simulating = False
-    g = s.add_garment(cloth)
+    s, g = _pleated()
     a = np.linspace(0, 2 * np.pi, 61)
     pointer = np.c_[0.2 + 0.1 * np.cos(a), 0.2 + 0.08 * np.sin(a), np.full(61, 0.5)]
     s.cut(pointer, rays=(0, 0, -1))

@@ -548,10 +548,10 @@ void add_two_panels(Session& s, int nx, int ny) {
 }
 
 // A seam stroke between them: the right border of the first panel traced with the primary button,
-// then the left border of the second with the secondary, `n` segments each.
-Stroke seam_between_panels(int n) {
+// then the left border of the second (`gap` to its right) with the secondary, `n` segments each.
+Stroke seam_between_panels(int n, double gap = 0.1) {
   Stroke stroke = line(Vec3(0.5, 0.0, 0.005), Vec3(0.5, 1.0, 0.005), n);
-  Stroke second = line(Vec3(0.6, 0.0, 0.005), Vec3(0.6, 1.0, 0.005), n, stroke.back().time, 1.0 / 60,
+  Stroke second = line(Vec3(0.5 + gap, 0.0, 0.005), Vec3(0.5 + gap, 1.0, 0.005), n, stroke.back().time, 1.0 / 60,
                        kButtonSecondary);
   stroke.back().phase = Phase::Move;
   second.front().phase = Phase::Move;
@@ -606,6 +606,31 @@ TEST(Sew, ASeamThatClosesIsTackedThenSewnAsTheSimulationDrawsItTogether) {
   ASSERT_TRUE(s.undo());
   EXPECT_EQ(s.garment(0).count_pieces(), 2u);
   EXPECT_TRUE(s.garment(0).tacks.empty());
+}
+
+// Borders of unequal spacing (2.5 and 2.8 cm) are tacked at both sides' vertices, so the seam's
+// border edges are a fraction of an edge. Pairs held 1.5 cm apart, as the body holds a side seam's
+// top pairs across the flank, are under an edge apart and sewn at the next step; when "met" meant
+// three quarters of the seam's shortest border edges (0.9 cm here), they stayed tacked for ever.
+TEST(Sew, PairsHeldUnderAnEdgeApartAreSewnWhereTheBordersSpacingDiffers) {
+  Session s(plugins());
+  Garment a = make_rectangle(0.5, 1.0, 21, 41);
+  Garment b = make_rectangle(0.5, 1.0, 21, 37);
+  b.transform(Eigen::Affine3d(Eigen::Translation3d(0.515, 0, 0)));
+  append_garment(a, b);
+  for (Vertex v : a.mesh().vertices()) a.set_pinned(v, true);  // held where they are
+  s.add_garment(std::move(a));
+  s.set_simulating(false);
+  s.run("sew", s.params_for("sew", {{"mode", std::string("seam")}, {"join", std::string("closing")}}),
+        seam_between_panels(40, 0.015));
+  ASSERT_GT(s.garment(0).tacks.size(), 41u) << "both sides' vertices are paired";
+  s.set_simulating(true);
+  s.step();
+  const Garment& g = s.garment(0);
+  EXPECT_TRUE(g.tacks.empty()) << g.tacks.size() << " pairs 1.5 cm apart left tacked";
+  EXPECT_TRUE(g.is_valid());
+  EXPECT_EQ(g.count_pieces(), 1u);
+  EXPECT_EQ(border_loops(g).size(), 1u) << "no border left along the seam";
 }
 
 TEST(Paint, TexelsUnderTheStrokeFollowTheClothAndAreExported) {

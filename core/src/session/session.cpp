@@ -145,16 +145,19 @@ void Session::simulate_step() {
 void Session::sew_met_tacks(std::size_t i) {
   Garment& g = garments_[i];
   if (g.tacks.empty()) return;
-  // Met within three quarters of the border's spacing (at least twice the cloth's thickness): the
-  // cloth's own collision and the body keep some pairs a little apart, and the last step to sew
-  // them is then shorter than an edge.
-  double spacing = 0;
-  for (const auto& [a, b] : g.tacks) {
-    double shortest = std::numeric_limits<double>::infinity();
-    for (Halfedge h : CGAL::halfedges_around_target(g.mesh().halfedge(a), g.mesh()))
-      if (g.mesh().is_border(g.mesh().edge(h))) shortest = std::min(shortest, g.rest_length(g.mesh().edge(h)));
-    if (std::isfinite(shortest)) spacing += shortest / double(g.tacks.size());
-  }
+  // Met within three quarters of the cloth's spacing at the seam (at least twice the cloth's
+  // thickness): the cloth's own collision and the body keep some pairs a little apart, and the last
+  // step to sew them is then shorter than an edge. The spacing is the median rest length of the
+  // edges at the tacked vertices, not of the border's: a seam between borders of unequal spacing is
+  // tacked at both sides' vertices, whose border edges are then a fraction of the cloth's.
+  std::vector<double> lengths;
+  for (const auto& [a, b] : g.tacks)
+    for (Vertex v : {a, b})
+      for (Halfedge h : CGAL::halfedges_around_target(g.mesh().halfedge(v), g.mesh()))
+        lengths.push_back(g.rest_length(g.mesh().edge(h)));
+  auto middle = lengths.begin() + std::ptrdiff_t(lengths.size() / 2);
+  std::nth_element(lengths.begin(), middle, lengths.end());
+  const double spacing = *middle;
   const double within = std::max(2 * g.material().thickness, 0.75 * spacing);
   // The pairs that have met, as a key: the same pairs on the same mesh, found nothing to sew before,
   // would find nothing again (what is sewn depends on which pairs met and on the mesh alone).

@@ -109,17 +109,18 @@ class CutTool : public Tool {
     // Drawn in a view (every point with a ray), the line is what the stroke covers as seen.
     if (std::all_of(marks_.begin(), marks_.end(), [](const Mark& m) { return m.ray.squaredNorm() > 0; }))
       for (const Mark& m : marks_) line.sweeps.push_back(m.ray.normalized());
-    // Along the pattern: where each point lies on the cloth, while the faces are those it was drawn
-    // on. Not for a stroke drawn in a view: over folds its points hop between layers, and the line
+    line.closed = !started_off_cloth_ && !ended_off_cloth && knife_line_closes(line.points, close_);
+    // Where each point lies on the cloth, while the faces are those it was drawn on: along the
+    // pattern, or for a closed stroke drawn in a view, the cloth it encloses as seen (cut_line). Not
+    // the pattern for a stroke in a view: over folds its points hop between layers, and the line
     // between them in the pattern encloses scraps of cloth.
-    if (follow_pattern_ && line.sweeps.empty() && !started_off_cloth_ && !ended_off_cloth &&
+    if ((line.sweeps.empty() ? follow_pattern_ : line.closed) && !started_off_cloth_ && !ended_off_cloth &&
         g.topology_version() == topology_at_begin_) {
       for (const Mark& m : marks_) {
         line.faces.push_back(m.face);
         line.weights.push_back(m.weights);
       }
     }
-    line.closed = !started_off_cloth_ && !ended_off_cloth && knife_line_closes(line.points, close_);
     // The stroke's return to its start is the closing piece of the line, which the knife draws.
     if (line.closed)
       while (line.points.size() > 3 && (line.points.back() - line.points.front()).norm() <= 0.5 * close_) {

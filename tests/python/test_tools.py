@@ -94,10 +94,9 @@ def test_cut_a_stroke_across_a_rectangle_makes_two_pieces_along_its_line():
     assert len(inner) >= 40 and all(abs(v[1] - 0.52) < 0.25 * 0.05 for v in inner)
 
 
-def _pleated_cut(follow):
-    """A 0.5 x 0.4 m cloth with a pleat (on to x = 0.2 m, back under itself to 0.15, on again: three
-    layers 4 mm apart), cut along an ellipse of its pattern through the cloth points on it; returns
-    the garment and how far the opening's border lies from that ellipse (metres of pattern)."""
+def _pleated():
+    """A still session with a 0.5 x 0.4 m cloth with a pleat (on to x = 0.2 m, back under itself to
+    0.15, on again: three layers 4 mm apart, the last on top as seen from +z)."""
     cloth = kiji.rectangle(0.5, 0.4, spacing=0.01)
     p = cloth.positions.copy()
     x = p[:, 0].copy()
@@ -107,7 +106,13 @@ def _pleated_cut(follow):
     s = kiji.Session()
     s.solver_params = kiji.SolverParams(gravity=(0, 0, 0))
     s.simulating = False
-    g = s.add_garment(cloth)
+    return s, s.add_garment(cloth)
+
+
+def _pleated_cut(follow):
+    """The pleated cloth cut along an ellipse of its pattern through the cloth points on it; returns
+    the garment and how far the opening's border lies from that ellipse (metres of pattern)."""
+    s, g = _pleated()
     a = np.linspace(0, 2 * np.pi, 49)
     ellipse = np.c_[0.22 + 0.14 * np.cos(a), 0.2 + 0.1 * np.sin(a)]
     points, _ = point_at_uv(g, ellipse / g.pattern_scale)
@@ -125,6 +130,27 @@ def test_cut_along_the_pattern_crosses_a_pleat_a_walk_keeps_to_its_layer():
     assert off < 0.25 * 0.01, "the opening is the ellipse drawn on the pattern"
     g, off = _pleated_cut("surface")
     assert off > 0.01, "walked over the surface, the line keeps to the bottom layer under the pleat"
+
+
+def test_a_closed_stroke_drawn_in_a_view_cuts_out_every_layer_it_encloses_as_seen():
+    # The pleated cloth seen from above (rays along -z, as a mouse in a view gives them), an
+    # ellipse drawn round the pleat: where the stroke crosses the pleat's edge it goes from the top
+    # layer to the bottom one as seen. What it encloses as seen is cut out through the three layers.
+    s, g = _pleated()
+    a = np.linspace(0, 2 * np.pi, 61)
+    pointer = np.c_[0.2 + 0.1 * np.cos(a), 0.2 + 0.08 * np.sin(a), np.full(61, 0.5)]
+    s.cut(pointer, rays=(0, 0, -1))
+    assert g.is_valid() and g.piece_count == 2 and len(g.border_loops()) == 3
+    # As seen, the faces more than a centimetre and a half inside the ellipse are one piece, on every
+    # layer, and those as far outside the other.
+    seen = np.hypot((g.positions[:, 0] - 0.2) / 0.1, (g.positions[:, 1] - 0.2) / 0.08)
+    piece = g.pieces()
+    inside = (seen[g.faces] < 1 - 0.015 / 0.08).all(axis=1)
+    outside = (seen[g.faces] > 1 + 0.015 / 0.08).all(axis=1)
+    assert len(set(piece[inside])) == 1 and len(set(piece[outside])) == 1
+    assert piece[inside][0] != piece[outside][0]
+    layers = np.round(g.positions[g.faces[inside].ravel(), 2], 3)
+    assert {0.0, 0.004, 0.008} <= set(layers), "the cloth cut out is the three layers'"
 
 
 def test_cut_edges_mode_of_earlier_builds_keeps_every_face():

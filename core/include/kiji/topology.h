@@ -45,12 +45,15 @@ struct KnifeLine {
   // For a line drawn in a view: the direction of the view's ray at each point (empty: none). Between
   // two points the line follows where the surface meets the sheet those rays sweep, so that it lies
   // under the stroke as seen, over folds and slopes a walk towards the next point stops on. A
-  // closed line that the sheet does not cut out is walked instead.
+  // closed one with faces (below) cuts round the cloth it encloses as seen, through every layer
+  // within its width of where it was drawn; where that, or the sheet, does not cut out one piece,
+  // it is walked.
   std::vector<Vec3> sweeps;
   // For a line through points known on the cloth (a script's cut through points it chose): each
   // point's face and its corners' weights (halfedge order from halfedge(face)). Between two points
   // the line then goes straight in the flat pattern, across folds and wrinkles that a walk over the
-  // surface stops at. Empty: the line is walked over the surface.
+  // surface stops at. Empty: the line is walked over the surface. With sweeps: the faces a closed
+  // stroke touched, where what it encloses as seen starts.
   std::vector<Face> faces;
   std::vector<Vec3> weights;
 };

@@ -9,6 +9,8 @@
 #include "cloth/garment_soup.h"
 #include "kiji/error.h"
 
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
@@ -396,7 +398,9 @@ std::vector<std::array<int, 3>> best_triangulation(const std::vector<Vec2>& q) {
 
 class Knife {
  public:
-  Knife(const Garment& g, const KnifeLine& line) : g_(g), line_(line), s_(detail::to_soup(g)), adj_(s_) {}
+  // Seen: a closed line drawn in a view cuts round the cloth it encloses as seen (follow_seen).
+  Knife(const Garment& g, const KnifeLine& line, bool seen = false)
+      : g_(g), line_(line), s_(detail::to_soup(g)), adj_(s_), seen_(seen) {}
 
   // Cuts `target` (the garment read), or only follows the line when it is null.
   KnifeCut run(Garment* target) {
@@ -434,6 +438,7 @@ class Knife {
  private:
   // --- 1. the line over the surface ---
   void follow() {
+    if (seen_) return follow_seen();
     if (!line_.faces.empty()) return follow_pattern();
     const Mesh& m = g_.mesh();
     if (line_.start == Mesh::null_face() || line_.start.idx() >= m.number_of_faces() + m.number_of_removed_faces() ||
@@ -504,6 +509,236 @@ class Knife {
       followed_.erase(followed_.begin() + (line_.from ? 0 : 1));
     }
     closed_ = crossings_.size() >= 3;
+  }
+
+  // A closed line drawn in a view, as what it encloses as seen: the cloth connected to the faces the
+  // stroke touched whose vertices project inside the stroke (through the view's eye, or along its
+  // rays where they are parallel), with any cloth it surrounds; the line is where that cloth's edges
+  // cross the cone of rays through the stroke. One line only (closed, or border to border): no
+  // crossings otherwise. The inside is found once; after vertices are moved onto the line, the
+  // crossings are found again on the same sides.
+  void follow_seen() {
+    const std::size_t n = line_.points.size();
+    if (n < 3 || line_.sweeps.size() != n || line_.faces.size() != n) return;
+    if (inside_.empty() && !find_inside()) return;
+    // The edges between the inside and the rest, two in each face with corners on both sides.
+    auto mixed = [&](Index a, Index b) { return inside_[a] != inside_[b]; };
+    std::vector<std::uint64_t> edges;
+    for (const auto& [key, faces] : adj_.faces)
+      if (mixed(Index(key >> 32), Index(key & 0xffffffffu))) edges.push_back(key);
+    if (edges.empty()) return;
+    std::sort(edges.begin(), edges.end());  // the map's order is not the same on every machine
+    // Where the line ends at the border, it starts there.
+    std::uint64_t start = edges.front();
+    for (std::uint64_t key : edges)
+      if (adj_.border(key)) {
+        start = key;
+        break;
+      }
+    auto other_mixed = [&](int face, std::uint64_t came) {
+      const auto& f = s_.faces[face];
+      for (int k = 0; k < 3; ++k) {
+        const std::uint64_t key = edge_key(f[k], f[(k + 1) % 3]);
+        if (key != came && mixed(f[k], f[(k + 1) % 3])) return key;
+      }
+      return came;
+    };
+    const auto& start_faces = adj_.faces.at(start);
+    int from = start_faces[1] < 0 ? -1 : start_faces[0], to = start_faces[1] < 0 ? start_faces[0] : start_faces[1];
+    std::uint64_t edge = start;
+    std::size_t crossed = 0;
+    bool closed = false;
+    for (std::size_t guard = 0; guard <= edges.size(); ++guard) {
+      crossings_.push_back(seen_crossing(edge, from, to));
+      followed_.push_back(crossings_.back().point);
+      ++crossed;
+      if (to < 0) break;
+      const std::uint64_t next = other_mixed(to, edge);
+      if (next == edge) break;
+      from = to;
+      to = adj_.other(next, from);
+      edge = next;
+      if (edge == start) {
+        closed = true;
+        break;
+      }
+    }
+    // Another line elsewhere (the inside meets the border twice, or a layer left out): not one cut.
+    if (crossed != edges.size() || (!closed && !adj_.border(edge))) {
+      crossings_.clear();
+      followed_.clear();
+      return;
+    }
+    closed_ = closed;
+  }
+
+  // The view: its eye where the rays meet (none where they are parallel), its axis, and the stroke
+  // on a plane across it; then which vertices are inside.
+  bool find_inside() {
+    const std::size_t n = line_.points.size();
+    Vec3 axis = Vec3::Zero();
+    for (const Vec3& r : line_.sweeps) {
+      if (!r.allFinite() || !(r.norm() > 0)) return false;
+      axis += r.normalized();
+    }
+    if (!(axis.norm() > 0)) return false;
+    axis_ = axis.normalized();
+    Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+    Vec3 b = Vec3::Zero();
+    for (std::size_t i = 0; i < n; ++i) {
+      const Vec3 r = line_.sweeps[i].normalized();
+      const Eigen::Matrix3d across = Eigen::Matrix3d::Identity() - r * r.transpose();
+      a += across;
+      b += across * line_.points[i];
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(a);
+    perspective_ = eig.eigenvalues()(0) > 1e-6 * eig.eigenvalues()(2);
+    if (perspective_) {
+      eye_ = a.ldlt().solve(b);
+      for (const Vec3& q : line_.points)
+        if (!((q - eye_).dot(axis_) > 0)) return false;
+    }
+    side_ = axis_.unitOrthogonal();
+    up_ = axis_.cross(side_);
+    loop_.clear();
+    for (const Vec3& q : line_.points) loop_.push_back(seen_at(q));
+    const Mesh& m = g_.mesh();
+    std::vector<int> index(m.number_of_faces() + m.number_of_removed_faces(), -1);
+    int i = 0;
+    for (Face f : m.faces()) index[f.idx()] = i++;
+    // The inside vertices of the faces the stroke touched, and what they reach inside.
+    inside_.assign(s_.vertices.size(), 0);
+    // As deep as the stroke was drawn, and as far again as the stroke is wide: the cap it encloses,
+    // not cloth far behind it that the same rays meet (the back of a garment behind the head).
+    Vec3 centre = Vec3::Zero();
+    for (const Vec3& q : line_.points) centre += q / double(n);
+    double wide = 0, nearest = std::numeric_limits<double>::infinity(), farthest = -nearest;
+    for (const Vec3& q : line_.points) {
+      wide = std::max(wide, (q - centre).norm());
+      nearest = std::min(nearest, depth(q));
+      farthest = std::max(farthest, depth(q));
+    }
+    std::vector<char> in_loop(s_.vertices.size(), 0);
+    for (Index v = 0; v < s_.vertices.size(); ++v) {
+      const Vec3& p = s_.vertices[v].position;
+      in_loop[v] = s_.vertices[v].alive && depth(p) > nearest - wide && depth(p) < farthest + wide && encloses(p);
+    }
+    const auto inc = s_.incidence();
+    std::vector<Index> todo;
+    for (Face f : line_.faces)
+      if (f != Mesh::null_face() && f.idx() < index.size() && index[f.idx()] >= 0)
+        for (Index v : s_.faces[index[f.idx()]])
+          if (in_loop[v] && !inside_[v]) inside_[v] = 1, todo.push_back(v);
+    if (todo.empty()) return false;
+    auto spread = [&](std::vector<char>& mark, auto&& may) {
+      while (!todo.empty()) {
+        const Index v = todo.back();
+        todo.pop_back();
+        for (Index f : inc[v])
+          for (Index w : s_.faces[f])
+            if (!mark[w] && may(w)) mark[w] = 1, todo.push_back(w);
+      }
+    };
+    spread(inside_, [&](Index w) { return in_loop[w] != 0; });
+    // Cloth the inside surrounds (no way to the border but through it) is inside too.
+    std::vector<char> out(s_.vertices.size(), 0);
+    std::vector<char> on_border(s_.vertices.size(), 0);
+    for (const auto& [key, faces] : adj_.faces)
+      if (faces[1] < 0) on_border[key >> 32] = on_border[key & 0xffffffffu] = 1;
+    for (Index v = 0; v < s_.vertices.size(); ++v)
+      if (on_border[v] && !inside_[v]) out[v] = 1, todo.push_back(v);
+    spread(out, [&](Index w) { return !inside_[w]; });
+    for (Index v = 0; v < s_.vertices.size(); ++v)
+      if (s_.vertices[v].alive && !out[v] && !inc[v].empty()) inside_[v] = 1;
+    // The line passes each vertex's ring once: where the sides change more than twice round a
+    // vertex (an arm of the outside between two of the inside), the line would touch itself there
+    // and open a sliver into a piece of its own. That ring goes inside.
+    for (int round = 0; round < 16; ++round) {
+      std::vector<Index> pinched;
+      for (Index v = 0; v < s_.vertices.size(); ++v) {
+        int changes = 0;
+        for (Index f : inc[v]) {
+          Index other[2], k = 0;
+          for (Index w : s_.faces[f])
+            if (w != v) other[k++] = w;
+          changes += inside_[other[0]] != inside_[other[1]];
+        }
+        if (changes > 2) pinched.push_back(v);
+      }
+      if (pinched.empty()) break;
+      for (Index v : pinched)
+        for (Index f : inc[v])
+          for (Index w : s_.faces[f]) inside_[w] = 1;
+    }
+    return true;
+  }
+
+  double depth(const Vec3& x) const { return (perspective_ ? Vec3(x - eye_) : x).dot(axis_); }
+
+  // A point as seen: across the view's axis (divided by its depth, through an eye).
+  Vec2 seen_at(const Vec3& x) const {
+    const Vec3 d = perspective_ ? Vec3(x - eye_) : x;
+    const double depth = perspective_ ? d.dot(axis_) : 1.0;
+    return Vec2(d.dot(side_) / depth, d.dot(up_) / depth);
+  }
+
+  // Whether the stroke, as seen, goes round a point (its winding number is not zero).
+  bool encloses(const Vec3& x) const {
+    if (perspective_ && !((x - eye_).dot(axis_) > 1e-9)) return false;
+    const Vec2 p = seen_at(x);
+    int winding = 0;
+    for (std::size_t i = 0; i < loop_.size(); ++i) {
+      const Vec2& a = loop_[i];
+      const Vec2& b = loop_[(i + 1) % loop_.size()];
+      const double cross = (b.x() - a.x()) * (p.y() - a.y()) - (p.x() - a.x()) * (b.y() - a.y());
+      if (a.y() <= p.y() && b.y() > p.y() && cross > 0) ++winding;
+      if (a.y() > p.y() && b.y() <= p.y() && cross < 0) --winding;
+    }
+    return winding != 0;
+  }
+
+  // Where an edge between the inside and the rest meets the cone of rays through the stroke: on the
+  // plane of the stroke's piece it crosses as seen, the one nearest its inside end; at the end
+  // nearer the stroke where rounding leaves none (an end moved onto the line).
+  Crossing seen_crossing(std::uint64_t key, int from, int to) const {
+    Crossing x;
+    x.a = Index(key >> 32);
+    x.b = Index(key & 0xffffffffu);
+    x.from = from;
+    x.to = to;
+    const Vec3 pa = pos(x.a), pb = pos(x.b);
+    const std::size_t n = line_.points.size();
+    double best = -1, nearest = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < n; ++i) {
+      const Vec3& q0 = line_.points[i];
+      const Vec3& q1 = line_.points[(i + 1) % n];
+      const Vec3 normal = perspective_ ? Vec3((q0 - eye_).cross(q1 - eye_)) : Vec3((q1 - q0).cross(axis_));
+      const Vec3 origin = perspective_ ? eye_ : q0;
+      const double da = (pa - origin).dot(normal), db = (pb - origin).dot(normal);
+      if ((da < 0) == (db < 0) || da == db) continue;
+      const double t = da / (da - db);
+      const Vec2 at = seen_at((1 - t) * pa + t * pb), s0 = seen_at(q0), s1 = seen_at(q1);
+      const double along = (at - s0).dot(s1 - s0) / std::max((s1 - s0).squaredNorm(), 1e-300);
+      if (along < -1e-9 || along > 1 + 1e-9) continue;
+      const double from_inside = inside_[x.a] ? t : 1 - t;
+      if (from_inside < nearest) nearest = from_inside, best = t;
+    }
+    if (best < 0) {
+      auto off = [&](const Vec3& p) {
+        double d = std::numeric_limits<double>::infinity();
+        const Vec2 s = seen_at(p);
+        for (std::size_t i = 0; i < n; ++i) {
+          const Vec2 s0 = loop_[i], s1 = loop_[(i + 1) % n];
+          const double u = std::clamp((s - s0).dot(s1 - s0) / std::max((s1 - s0).squaredNorm(), 1e-300), 0.0, 1.0);
+          d = std::min(d, (s0 + u * (s1 - s0) - s).norm());
+        }
+        return d;
+      };
+      best = off(pa) <= off(pb) ? 0.0 : 1.0;
+    }
+    x.t = best;
+    x.point = (1 - best) * pa + best * pb;
+    return x;
   }
 
   // A line given by where its points lie on the cloth: straight in the pattern from point to point,
@@ -1039,25 +1274,63 @@ class Knife {
   std::set<std::uint64_t> segments_;
   std::vector<Index> path_;
   std::vector<std::pair<int, Vec3>> pattern_at_;  // a pattern line's points: face and uv
+  // A line as seen (follow_seen): the view, the stroke across it, and which vertices are inside.
+  bool seen_ = false, perspective_ = false;
+  Vec3 eye_ = Vec3::Zero(), axis_ = Vec3::UnitZ(), side_ = Vec3::UnitX(), up_ = Vec3::UnitY();
+  std::vector<Vec2> loop_;
+  std::vector<char> inside_;
 };
 
 }  // namespace
 
 KnifeCut cut_line(Garment& g, const KnifeLine& line) {
-  if (line.closed && !line.sweeps.empty()) {
-    // A closed line whose sheet made no piece (it can miss where the surface is steep to the view)
-    // is cut by walking over the surface between its points instead.
-    Garment swept = g;
-    const KnifeCut cut = Knife(g, line).run(&swept);
-    if (swept.count_pieces() > g.count_pieces()) {
-      g = std::move(swept);
-      return cut;
+  if (line.sweeps.empty()) return Knife(g, line).run(&g);
+  // Drawn in a view, the line follows the sheet its rays sweep; the faces the stroke touched, where
+  // given, are for a closed line (below).
+  KnifeLine in_view = line;
+  in_view.faces.clear();
+  in_view.weights.clear();
+  if (!line.closed) return Knife(g, in_view).run(&g);
+  // A closed line cuts out what it encloses: one more piece, and two more border loops (the
+  // opening's and the piece's). It cuts round the cloth it encloses as seen, where it knows the
+  // faces the stroke touched; else (or where that is not one line: the cloth inside meets the
+  // border) along the sheet of its rays, which can miss where the surface is steep to the view or
+  // run down a fold's wall; failing that, the sheet's cut stands if it made a piece, and otherwise
+  // the line is walked over the surface.
+  const std::size_t pieces = g.count_pieces(), loops = border_loops(g).size();
+  auto cuts_out = [&](const Garment& cut) {
+    return cut.count_pieces() == pieces + 1 && border_loops(cut).size() == loops + 2;
+  };
+  if (!line.faces.empty()) {
+    Garment seen = g;
+    try {
+      const KnifeCut cut = Knife(g, line, /*seen=*/true).run(&seen);
+      if (cuts_out(seen)) {
+        g = std::move(seen);
+        return cut;
+      }
+    } catch (const InputError&) {
+      // the next way may cut it
     }
-    KnifeLine walked = line;
-    walked.sweeps.clear();
-    return Knife(g, walked).run(&g);
   }
-  return Knife(g, line).run(&g);
+  Garment swept = g;
+  std::optional<KnifeCut> swept_cut;
+  try {
+    swept_cut = Knife(g, in_view).run(&swept);
+  } catch (const InputError&) {
+    // the walk, the last way, reports its own error if it has one
+  }
+  if (swept_cut && cuts_out(swept)) {
+    g = std::move(swept);
+    return *swept_cut;
+  }
+  if (swept_cut && swept.count_pieces() > pieces) {
+    g = std::move(swept);
+    return *swept_cut;
+  }
+  KnifeLine walked = in_view;
+  walked.sweeps.clear();
+  return Knife(g, walked).run(&g);
 }
 
 bool knife_line_closes(const std::vector<Vec3>& points, double within) {
@@ -1067,6 +1340,13 @@ bool knife_line_closes(const std::vector<Vec3>& points, double within) {
   return (points.back() - points.front()).norm() <= within && away > 2 * within;
 }
 
-std::vector<Vec3> trace_line(const Garment& g, const KnifeLine& line) { return Knife(g, line).run(nullptr).line; }
+std::vector<Vec3> trace_line(const Garment& g, const KnifeLine& line) {
+  if (line.sweeps.empty() || line.faces.empty()) return Knife(g, line).run(nullptr).line;
+  KnifeLine in_view = line;  // the sheet's line (a closed one may be cut otherwise: cut_line)
+  in_view.faces.clear();
+  in_view.weights.clear();
+  return Knife(g, in_view).run(nullptr).line;
+}
 
 }  // namespace kiji
+

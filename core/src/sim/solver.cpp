@@ -88,6 +88,9 @@ void check_garment(const Garment& garment) {
                      ": rest lengths must be positive");
 }
 
+// The lightest a vertex is in the xpbd solve, as a share of the garment's median vertex.
+constexpr double kLightestShare = 0.5;
+
 // Whether it built them.
 bool build_if_needed(SolverArrays& s, const Garment& garment) {
   if (s.built && s.garment == &garment && s.topology == garment.topology_version() && s.n == garment.vertex_capacity())
@@ -734,6 +737,22 @@ void Solver::step(Garment& garment, double dt) {
   });
   for (const auto& d : piece_disturbed)
     for (int b = 0; b < s.blocks; ++b) disturbed[b] |= d[b];
+  // No vertex lighter than half the garment's median vertex in the solve. A knife's small triangles
+  // leave vertices a tenth to a fortieth as heavy as their neighbours; each projection of an edge
+  // beside one moved it nearly the whole way, so the strain limit did not converge around it and a
+  // cut border hung stretched (docs/benchmarks.md, "The border's stretch"). A border vertex of an
+  // even mesh weighs half an inner one and is left as it is.
+  if (!mass_spring) {
+    s.im_median.clear();
+    for (std::size_t i = 0; i < n; ++i)
+      if (s.alive[i] && s.im[i] > 0) s.im_median.push_back(s.im[i]);
+    if (!s.im_median.empty()) {
+      const auto mid = s.im_median.begin() + s.im_median.size() / 2;
+      std::nth_element(s.im_median.begin(), mid, s.im_median.end());
+      const double cap = *mid / kLightestShare;
+      for (std::size_t i = 0; i < n; ++i) s.w[i] = std::min(s.w[i], cap);
+    }
+  }
   for (const auto& f : forces_) {
     s.fext[f.vertex.idx()] += f.force;
     disturbed[s.block[f.vertex.idx()]] = 1;

@@ -42,6 +42,7 @@ struct SolverArrays {
   std::vector<int> order;             // alive vertices in spatial (Morton) order at the last rebuild
   std::vector<Vec3> x, xp, x0, v, fext, pred;
   std::vector<double> w;              // inverse mass used by the model (0 = fixed)
+  std::vector<double> im_median;      // scratch: the live vertices' inverse masses, for their median
   std::vector<double> surprise;       // |end of the last step - its predicted end| (collision margin)
   std::vector<double> surprise_self;  // the same less the cloth's mean miss (self-collision margin)
 

@@ -292,7 +292,8 @@ def run_experiment(settings: Settings = Settings()) -> Result:
 
     # 2. Cut the head opening: one stroke around an ellipse on the crown of the pattern, back to where
     #    it began (the knife cuts out what a closed line encloses), and take away the cloth over the
-    #    head.
+    #    head. The knife goes straight in the pattern between the stroke's points: a walk over the
+    #    surface stops where a fold of the draped crown turns it back, as at a crease on purpose.
     s.simulating = False  # nothing falls while the scissors work
     centre_u, centre_v = st.width / 2, st.length / 2
     scale = g.pattern_scale
@@ -304,7 +305,7 @@ def run_experiment(settings: Settings = Settings()) -> Result:
         return points[~np.isnan(points).any(axis=1)]
 
     crown = pattern.id[(nx // 2, ny // 2)]
-    s.cut(around_head(0, 2 * np.pi))
+    s.cut(around_head(0, 2 * np.pi), follow="pattern")
     if g.piece_count != 2:
         raise kiji.Error(f"experiment: the cut around the head made {g.piece_count} pieces, not 2")
     rows = {int(v): i for i, v in enumerate(g.vertex_ids)}

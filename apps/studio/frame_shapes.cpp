@@ -44,12 +44,13 @@ GarmentShape::GarmentShape(const GarmentFrame& g) : topology(g.topology) {
   for (std::uint32_t f = 0; f < triangles; ++f)
     for (int k = 0; k < 3; ++k)
       directed.emplace(key(t.mesh_vertex[t.triangles[3 * f + k]], t.mesh_vertex[t.triangles[3 * f + (k + 1) % 3]]), f);
-  std::vector<std::uint32_t> next(top, kNone);
+  std::vector<std::uint32_t> next(top, kNone), border_triangle(top, kNone);
   std::vector<Vec2> uv_at(top, Vec2::Zero());
   for (const auto& [k, f] : directed) {
     const std::uint32_t a = std::uint32_t(k >> 32), b = std::uint32_t(k & 0xffffffffu);
     if (directed.count(key(b, a))) continue;
     next[a] = b;
+    border_triangle[a] = f;
     for (int c = 0; c < 3; ++c) {
       const std::uint32_t r = t.triangles[3 * f + c];
       if (t.mesh_vertex[r] == a) uv_at[a] = Vec2(t.uv[2 * r], t.uv[2 * r + 1]);
@@ -113,6 +114,15 @@ GarmentShape::GarmentShape(const GarmentFrame& g) : topology(g.topology) {
     }
     piece_of_triangle[f] = it->second;
   }
+  piece_of_border.assign(top, -1);
+  for (std::uint32_t v = 0; v < top; ++v)
+    if (border_triangle[v] != kNone) piece_of_border[v] = piece_of_triangle[border_triangle[v]];
+}
+
+bool GarmentShape::runs_with_loop(const std::vector<std::uint32_t>& side) const {
+  if (side.size() < 2 || !on_border(side[0]) || !on_border(side[1])) return false;
+  const int n = int(loops[loop_of[side[0]]].size());
+  return (place_in_loop[side[0]] + 1) % n == place_in_loop[side[1]];
 }
 
 Vec3 GarmentShape::position(const GarmentFrame& g, std::uint32_t v) const {

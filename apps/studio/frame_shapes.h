@@ -21,6 +21,7 @@ struct GarmentShape {
   std::vector<int> loop_of, place_in_loop;         // mesh vertex -> its loop and place in it (-1: not on a border)
   std::vector<char> corner;                        // mesh vertex: the border turns there by 40 degrees or more (in the pattern)
   std::vector<int> piece_of_triangle;              // triangle -> its piece (connected by edges)
+  std::vector<int> piece_of_border;                // mesh vertex on a border -> its piece (-1: not on a border)
   std::vector<std::uint32_t> piece_vertex;         // piece -> a mesh vertex of it
   std::vector<std::uint32_t> seams;                // sewn edges: render vertex pairs
   int pieces = 0;
@@ -28,6 +29,8 @@ struct GarmentShape {
   explicit GarmentShape(const GarmentFrame& g);
   Vec3 position(const GarmentFrame& g, std::uint32_t mesh_vertex) const;
   bool on_border(std::uint32_t v) const { return v < loop_of.size() && loop_of[v] >= 0; }
+  // Whether the stretch of border `side` runs the way of its loop (the faces' turning order).
+  bool runs_with_loop(const std::vector<std::uint32_t>& side) const;
   // The border vertices from `from` to `to` along their loop, going `forward` (the loop's order) or
   // back; empty if they are not on one loop.
   std::vector<std::uint32_t> along(std::uint32_t from, std::uint32_t to, bool forward) const;

@@ -82,14 +82,22 @@ void SeamPicker::release(const GarmentFrame& g, const GarmentShape& shape) {
   }
   second_ = std::move(side);
   stage_ = Stage::Ready;
+  one_piece_ = shape.piece_of_border[first_.front()] == shape.piece_of_border[second_.front()];
+  if (one_piece_) {
+    // stitch() closes a seam whose sides run opposite ways round their loops.
+    flipped_ = shape.runs_with_loop(first_) == shape.runs_with_loop(second_);
+    return;
+  }
   auto at = [&](std::uint32_t v) { return shape.position(g, v); };
   const double straight = (at(first_.front()) - at(second_.front())).norm() + (at(first_.back()) - at(second_.back())).norm();
   const double crossed = (at(first_.front()) - at(second_.back())).norm() + (at(first_.back()) - at(second_.front())).norm();
   flipped_ = crossed < straight;
 }
 
-void SeamPicker::flip() {
-  if (stage_ == Stage::Ready) flipped_ = !flipped_;
+bool SeamPicker::flip() {
+  if (stage_ != Stage::Ready || one_piece_) return false;
+  flipped_ = !flipped_;
+  return true;
 }
 
 void SeamPicker::clear() {
@@ -138,8 +146,10 @@ QString SeamPicker::hint() const {
     case Stage::Second:
       return "Sew: now the second side, the same way (Esc: start again)";
     case Stage::Ready:
-      return QString("Sew: %1 and %2 border vertices will be joined. Click or Enter: sew; right button or R: "
-                     "the other way round; Esc: cancel")
+      return QString(one_piece_ ? "Sew: %1 and %2 border vertices will be joined (within one piece, the only way round "
+                                  "that does not twist it). Click or Enter: sew; Esc: cancel"
+                                : "Sew: %1 and %2 border vertices will be joined. Click or Enter: sew; right button or R: "
+                                  "the other way round; Esc: cancel")
           .arg(first_.size())
           .arg(second_.size());
   }

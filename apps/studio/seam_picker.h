@@ -29,10 +29,14 @@ class SeamPicker {
   void drag(std::uint32_t w, const GarmentShape& shape);
   // The button came up: the stretch dragged over, or for a click the side between corners, is the
   // next side of the seam. With both sides picked, the second is turned so that the seam's ends
-  // meet the nearer ends (what the hand means nearly always; flip() turns it back).
+  // meet the nearer ends (what the hand means nearly always; flip() turns it back). A seam within
+  // one piece closes one way round only (the other is a Moebius strip): it is turned that way.
   void release(const GarmentFrame& g, const GarmentShape& shape);
-  // The second side runs the other way (the seam's pairs cross over).
-  void flip();
+  // The second side runs the other way (the seam's pairs cross over); false, and nothing turned,
+  // for a seam within one piece.
+  bool flip();
+  // Both sides are on one piece: the seam has one way round.
+  bool one_piece() const { return one_piece_; }
   void clear();
 
   // The sides picked (the second as it will be sewn: turned when flipped), and the stretch being
@@ -56,6 +60,7 @@ class SeamPicker {
   int garment_ = -1;
   std::vector<std::uint32_t> first_, second_;
   bool flipped_ = false;
+  bool one_piece_ = false;
   std::vector<std::uint32_t> stretch_;
   int direction_ = 0;  // of the stretch dragged: +1 along the loop, -1 back, 0 not yet known
 };

@@ -633,6 +633,34 @@ TEST(Sew, PairsHeldUnderAnEdgeApartAreSewnWhereTheBordersSpacingDiffers) {
   EXPECT_EQ(border_loops(g).size(), 1u) << "no border left along the seam";
 }
 
+// A 1 m side sewn to a 0.6 m one (a sleeve eased into an armhole, a side picked by hand shorter than
+// the other): the pairs are matched by their share of each side's length and meet to the seam's end.
+TEST(Sew, ASeamBetweenSidesOfUnequalLengthClosesToItsEnd) {
+  Session s(plugins());
+  Garment a = make_rectangle(0.5, 1.0, 21, 41);
+  Garment b = make_rectangle(0.5, 0.6, 21, 25);
+  b.transform(Eigen::Affine3d(Eigen::Translation3d(0.525, 0, 0)));
+  append_garment(a, b);
+  s.add_garment(std::move(a));
+  SolverParams weightless = s.solver_params();
+  weightless.gravity = Vec3::Zero();
+  s.set_solver_params(weightless);
+  s.set_simulating(false);
+  Stroke stroke = line(Vec3(0.5, 0.0, 0.005), Vec3(0.5, 1.0, 0.005), 40);
+  Stroke second = line(Vec3(0.525, 0.0, 0.005), Vec3(0.525, 0.6, 0.005), 24, stroke.back().time, 1.0 / 60, kButtonSecondary);
+  stroke.back().phase = Phase::Move;
+  second.front().phase = Phase::Move;
+  stroke.insert(stroke.end(), second.begin(), second.end());
+  s.run("sew", s.params_for("sew", {{"mode", std::string("seam")}, {"join", std::string("closing")}}), stroke);
+  ASSERT_GT(s.garment(0).tacks.size(), 40u);
+  s.set_simulating(true);
+  for (int i = 0; i < 240 && !s.garment(0).tacks.empty(); ++i) s.step();
+  const Garment& g = s.garment(0);
+  EXPECT_TRUE(g.tacks.empty()) << g.tacks.size() << " pairs left tacked";
+  EXPECT_TRUE(g.is_valid());
+  EXPECT_EQ(g.count_pieces(), 1u);
+}
+
 TEST(Paint, TexelsUnderTheStrokeFollowTheClothAndAreExported) {
   auto owner = flat_session(1.0, 1.0, 21, 21);
   Session& s = *owner;

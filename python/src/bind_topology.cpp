@@ -330,7 +330,8 @@ void bind_topology(py::module_& m) {
     return sewn;
   }, py::arg("garment"), py::arg("within"),
      "Sews every run of two or more tacks whose vertices are within `within` m of each other along both\n"
-     "borders (a session does this after each step); returns the number of pairs sewn.");
+     "borders (a seam's last pair, next to its sewn end, within twice that; a session does this after\n"
+     "each step); returns the number of pairs sewn.");
   m.def("append_garment", [](const RefPtr& g, const RefPtr& other) {
     check(other);
     Garment copy;

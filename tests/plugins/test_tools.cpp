@@ -633,6 +633,34 @@ TEST(Sew, PairsHeldUnderAnEdgeApartAreSewnWhereTheBordersSpacingDiffers) {
   EXPECT_EQ(border_loops(g).size(), 1u) << "no border left along the seam";
 }
 
+// A seam's last pair held 3 cm apart (more than 'met', under two edges), as the body held a side
+// seam's hem pair across the flank in Kiji Studio: sewn with the rest, not left tacked for good.
+TEST(Sew, ASeamsLastPairHeldApartIsSewnWithTheRest) {
+  Session s(plugins());
+  Garment a = make_rectangle(0.5, 1.0, 21, 41);
+  Garment b = make_rectangle(0.5, 1.0, 21, 41);
+  b.transform(Eigen::Affine3d(Eigen::Translation3d(0.51, 0, 0)));
+  append_garment(a, b);
+  for (Vertex v : a.mesh().vertices()) a.set_pinned(v, true);  // held where they are
+  s.add_garment(std::move(a));
+  s.set_simulating(false);
+  s.run("sew", s.params_for("sew", {{"mode", std::string("seam")}, {"join", std::string("closing")}}),
+        seam_between_panels(40, 0.01));
+  ASSERT_EQ(s.garment(0).tacks.size(), 41u);
+  // The top pair 3 cm apart, the others 1 cm.
+  Garment g = s.garment(0);
+  for (const auto& [p, q] : g.tacks)
+    if (g.position(p).y() > 0.99) g.set_position(q, g.position(p) + Vec3(0.03, 0, 0));
+  s.set_garment(0, g);
+  s.set_simulating(true);
+  s.step();
+  const Garment& sewn = s.garment(0);
+  EXPECT_TRUE(sewn.tacks.empty()) << sewn.tacks.size() << " pairs left tacked";
+  EXPECT_TRUE(sewn.is_valid());
+  EXPECT_EQ(sewn.count_pieces(), 1u);
+  EXPECT_EQ(border_loops(sewn).size(), 1u) << "no border left along the seam";
+}
+
 // A 1 m side sewn to a 0.6 m one (a sleeve eased into an armhole, a side picked by hand shorter than
 // the other): the pairs are matched by their share of each side's length and meet to the seam's end.
 TEST(Sew, ASeamBetweenSidesOfUnequalLengthClosesToItsEnd) {

@@ -109,12 +109,19 @@ void stitch(Garment& g, const std::vector<Vertex>& a, const std::vector<Vertex>&
 std::vector<std::pair<Vertex, Vertex>> tack_seam(Garment& g, const std::vector<Vertex>& a,
                                                  const std::vector<Vertex>& b);
 
-// Sews every run of tacks whose two vertices are within `within` of each other and that follow one
-// another along both borders, merging the pairs as tacked; a run goes on to the vertex both its
-// borders lead to (where the seam is already sewn, or a shared corner). A met pair alone waits for a
-// neighbour (merged alone it would pinch the cloth), unless its two vertices are border neighbours;
-// a run the mesh cannot take stays tacked. Returns the number of pairs sewn.
+// Sews every run of met tacks (tack_met) that follow one another along both borders, merging the
+// pairs as tacked; a run goes on to the vertex both its borders lead to (where the seam is already
+// sewn, or a shared corner). A met pair alone waits for a neighbour (merged alone it would pinch the
+// cloth), unless its two vertices are border neighbours; a run the mesh cannot take stays tacked.
+// Returns the number of pairs sewn.
 std::size_t close_tacks(Garment& g, double within);
+
+// Whether the tacked pair (a, b) has met: its vertices within `within` of each other; or, for a
+// seam's last pair (its vertices border neighbours of one vertex, the seam's sewn end or a shared
+// corner, and nothing tacked beyond them), within twice that: the body or the cloth can hold that
+// pair apart as far as its two edges to the end differ, and sewn it moves each vertex less than an
+// edge.
+bool tack_met(const Garment& g, Vertex a, Vertex b, double within);
 
 // Adds every vertex and face of `other` to `g` as separate pieces (e.g. the panels of one garment),
 // keeping their properties; returns the index that `other`'s vertex 0 now has (vertex i of other

@@ -551,6 +551,31 @@ std::vector<std::pair<Vertex, Vertex>> tack_seam(Garment& g, const std::vector<V
   return pairs;
 }
 
+bool tack_met(const Garment& g, Vertex a, Vertex b, double within) {
+  const double gap = (g.position(a) - g.position(b)).norm();
+  if (gap <= within) return true;
+  if (!(gap <= 2 * within)) return false;
+  const Mesh& m = g.mesh();
+  Vertex end = Mesh::null_vertex();
+  for (Halfedge h : CGAL::halfedges_around_target(m.halfedge(a), m)) {
+    const Vertex x = m.source(h);
+    if (x == b || !m.is_border(m.edge(h))) continue;
+    const auto [k, found] = CGAL::halfedge(b, x, m);
+    if (found && m.is_border(m.edge(k))) end = x;
+  }
+  if (end == Mesh::null_vertex()) return false;
+  // The seam's last pair: beyond it, on either border, no vertex is tacked.
+  std::set<Vertex> tacked;
+  for (const auto& [p, q] : g.tacks)
+    if (!((p == a && q == b) || (p == b && q == a))) tacked.insert({p, q});
+  for (Vertex v : {a, b})
+    for (Halfedge h : CGAL::halfedges_around_target(m.halfedge(v), m)) {
+      const Vertex y = m.source(h);
+      if (y != end && y != a && y != b && m.is_border(m.edge(h)) && tacked.count(y)) return false;
+    }
+  return true;
+}
+
 std::size_t close_tacks(Garment& g, double within) {
   std::size_t sewn = 0;
   std::set<std::pair<Vertex, Vertex>> refused;
@@ -563,7 +588,7 @@ std::size_t close_tacks(Garment& g, double within) {
     };
     std::vector<std::pair<Vertex, Vertex>> met;
     for (const auto& t : g.tacks)
-      if (!refused.count(t) && (g.position(t.first) - g.position(t.second)).norm() <= within) met.push_back(t);
+      if (!refused.count(t) && tack_met(g, t.first, t.second, within)) met.push_back(t);
     std::vector<char> used(met.size(), 0);
     // A met tack next to `t` along both borders (oriented as t), not yet in a run.
     auto next_of = [&](const std::pair<Vertex, Vertex>& t) -> std::optional<std::pair<Vertex, Vertex>> {

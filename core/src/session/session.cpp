@@ -159,12 +159,12 @@ void Session::sew_met_tacks(std::size_t i) {
   std::nth_element(lengths.begin(), middle, lengths.end());
   const double spacing = *middle;
   const double within = std::max(2 * g.material().thickness, 0.75 * spacing);
-  // The pairs that have met, as a key: the same pairs on the same mesh, found nothing to sew before,
+  // The pairs that have met (tack_met: the pair next to the seam's sewn end from twice as far), as a key: the same pairs on the same mesh, found nothing to sew before,
   // would find nothing again (what is sewn depends on which pairs met and on the mesh alone).
   std::size_t met = 0;
   std::uint64_t key = 1469598103934665603ull;
   for (const auto& [a, b] : g.tacks)
-    if ((g.position(a) - g.position(b)).norm() <= within) {
+    if (tack_met(g, a, b, within)) {
       ++met;
       for (std::uint64_t x : {std::uint64_t(a.idx()), std::uint64_t(b.idx())}) key = (key ^ x) * 1099511628211ull;
     }

@@ -95,6 +95,7 @@ from ._kiji import (
     stitch,
     tack_seam,
     close_tacks,
+    tack_met,
     strokes_of,
     take_snapshot,
     tool_metadata_json,
@@ -135,7 +136,7 @@ __all__ = [
     "load_session_operations", "merge_vertices", "non_manifold_vertices", "panel", "parse_journal", "pick",
     "place_over_body", "plugin_folders", "plugin_reports", "read_journal", "read_png", "recover", "rectangle",
     "register_tool", "registry", "remove_edge", "remove_edges", "render", "save_journal", "save_operations", "session_state_hash",
-    "split_vertex", "split_vertex_between", "stitch", "tack_seam", "close_tacks", "strokes_of", "take_snapshot", "tool_info",
+    "split_vertex", "split_vertex_between", "stitch", "tack_seam", "close_tacks", "tack_met", "strokes_of", "take_snapshot", "tool_info",
     "tool_metadata_json", "tools", "unregister_tool", "use_registry", "version", "visible_points", "write_png",
 ]
 

@@ -332,6 +332,14 @@ void bind_topology(py::module_& m) {
      "Sews every run of two or more tacks whose vertices are within `within` m of each other along both\n"
      "borders (a seam's last pair, next to its sewn end, within twice that; a session does this after\n"
      "each step); returns the number of pairs sewn.");
+  m.def("tack_met", [](const RefPtr& g, long long a, long long b, double within) {
+    auto lock = check(g)->guard();
+    const Garment& gm = g->get();
+    const VertexRows rows(gm);
+    return tack_met(gm, vertex_at(rows, a, "tack_met"), vertex_at(rows, b, "tack_met"), within);
+  }, py::arg("garment"), py::arg("a"), py::arg("b"), py::arg("within"),
+     "Whether the tacked pair of vertex rows (a, b) counts as met for close_tacks: within `within` m, or\n"
+     "within twice that for a seam's last pair, next to its sewn end.");
   m.def("append_garment", [](const RefPtr& g, const RefPtr& other) {
     check(other);
     Garment copy;

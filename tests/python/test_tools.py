@@ -251,8 +251,15 @@ def test_tack_seam_and_close_tacks_sew_the_pairs_that_met():
     pairs = kiji.tack_seam(g, left, right)
     assert pairs.shape == (6, 2) and len(g.tacks) == 6
     assert kiji.close_tacks(g, 0.01) == 0, "a metre apart: nothing met"
+    assert not kiji.tack_met(g, pairs[0][0], pairs[0][1], 0.01)
     with pytest.raises(kiji.InputError):
         kiji.tack_seam(g, left[:1], right[:1])
+    # The sides rolled round into a tube, each pair 1.5 cm apart: under 'met' of 2 cm they are sewn.
+    q = g.positions
+    angle = 2 * np.pi * q[:, 0] / 1.015
+    g.positions = np.column_stack([np.sin(angle) * 1.015 / (2 * np.pi), q[:, 1], np.cos(angle) * 1.015 / (2 * np.pi)])
+    assert all(kiji.tack_met(g, a, b, 0.02) for a, b in pairs)
+    assert kiji.close_tacks(g, 0.02) == 6 and len(g.tacks) == 0 and g.piece_count == 1
 
 
 def test_sew_two_panels_along_a_seam_leave_no_border_along_it():

@@ -548,10 +548,11 @@ void add_two_panels(Session& s, int nx, int ny) {
 }
 
 // A seam stroke between them: the right border of the first panel traced with the primary button,
-// then the left border of the second (`gap` to its right) with the secondary, `n` segments each.
-Stroke seam_between_panels(int n, double gap = 0.1) {
+// then the left border of the second (`gap` to its right, `height` high) with the secondary, `n`
+// segments each.
+Stroke seam_between_panels(int n, double gap = 0.1, double height = 1.0) {
   Stroke stroke = line(Vec3(0.5, 0.0, 0.005), Vec3(0.5, 1.0, 0.005), n);
-  Stroke second = line(Vec3(0.5 + gap, 0.0, 0.005), Vec3(0.5 + gap, 1.0, 0.005), n, stroke.back().time, 1.0 / 60,
+  Stroke second = line(Vec3(0.5 + gap, 0.0, 0.005), Vec3(0.5 + gap, height, 0.005), n, stroke.back().time, 1.0 / 60,
                        kButtonSecondary);
   stroke.back().phase = Phase::Move;
   second.front().phase = Phase::Move;
@@ -671,12 +672,8 @@ TEST(Sew, ASeamBetweenSidesOfUnequalLengthClosesToItsEnd) {
   weightless.gravity = Vec3::Zero();
   s.set_solver_params(weightless);
   s.set_simulating(false);
-  Stroke stroke = line(Vec3(0.5, 0.0, 0.005), Vec3(0.5, 1.0, 0.005), 40);
-  Stroke second = line(Vec3(0.525, 0.0, 0.005), Vec3(0.525, 0.6, 0.005), 24, stroke.back().time, 1.0 / 60, kButtonSecondary);
-  stroke.back().phase = Phase::Move;
-  second.front().phase = Phase::Move;
-  stroke.insert(stroke.end(), second.begin(), second.end());
-  s.run("sew", s.params_for("sew", {{"mode", std::string("seam")}, {"join", std::string("closing")}}), stroke);
+  s.run("sew", s.params_for("sew", {{"mode", std::string("seam")}, {"join", std::string("closing")}}),
+        seam_between_panels(40, 0.025, 0.6));
   ASSERT_GT(s.garment(0).tacks.size(), 40u);
   s.set_simulating(true);
   for (int i = 0; i < 240 && !s.garment(0).tacks.empty(); ++i) s.step();

@@ -159,8 +159,9 @@ void Session::sew_met_tacks(std::size_t i) {
   std::nth_element(lengths.begin(), middle, lengths.end());
   const double spacing = *middle;
   const double within = std::max(2 * g.material().thickness, 0.75 * spacing);
-  // The pairs that have met (tack_met: the pair next to the seam's sewn end from twice as far), as a key: the same pairs on the same mesh, found nothing to sew before,
-  // would find nothing again (what is sewn depends on which pairs met and on the mesh alone).
+  // The pairs that have met (tack_met: a seam's last pair from twice as far), as a key: the same
+  // pairs on the same mesh, found nothing to sew before, would find nothing again (what is sewn
+  // depends on which pairs met and on the mesh alone).
   std::size_t met = 0;
   std::uint64_t key = 1469598103934665603ull;
   for (const auto& [a, b] : g.tacks)

@@ -1,10 +1,12 @@
 """The tools driven from Python give what tests/plugins/test_tools.cpp checks in C++, case by case."""
+import os
+
 import numpy as np
 import pytest
 
 import kiji
 from kiji.geometry import point_at_uv
-from conftest import flat_session, line, nearest_row, run_and_check_undo
+from conftest import REPO, flat_session, line, nearest_row, run_and_check_undo
 
 
 def test_all_six_tools_are_found_as_plugins():
@@ -151,6 +153,31 @@ def test_a_closed_stroke_drawn_in_a_view_cuts_out_every_layer_it_encloses_as_see
     assert piece[inside][0] != piece[outside][0]
     layers = np.round(g.positions[g.faces[inside].ravel(), 2], 3)
     assert {0.0, 0.004, 0.008} <= set(layers), "the cloth cut out is the three layers'"
+
+
+def test_a_closed_stroke_round_a_draped_head_cuts_out_one_piece_however_the_mouse_samples_it():
+    # The cloth folded round the default body's head as Kiji Studio's experiment drapes it, a ring
+    # drawn round the head from the view above, as the mouse's events sample it: 18 to 40 points
+    # anywhere along the ring. Where the line passes close to vertices they are moved onto it, and
+    # an edge with both ends on the line is crossed at whichever end rounding gives; each stroke
+    # still cuts out one piece, the cap, and leaves one opening (no sliver of a vertex's ring cut
+    # off with it, no slit where the cut did not close).
+    d = np.load(os.path.join(REPO, "tests", "fixtures", "cloth", "draped_head.npz"))
+    eye = np.array([0.0, 4.566, 0.0185])  # the view from above (key 7), as Studio's camera had it
+    centre, rx, rz = np.array([0.0, 1.6333, -0.0717]), 0.0859, 0.0798
+    rng = np.random.default_rng(7)
+    failed = []
+    for k in range(400):
+        n = int(rng.integers(18, 40))
+        a = np.r_[0, np.sort(rng.uniform(0, 2 * np.pi, n - 2)), 2 * np.pi]
+        ring = np.c_[centre[0] + rx * np.cos(a), np.full(n, centre[1]), centre[2] + rz * np.sin(a)]
+        s = kiji.Session()
+        g = s.add_garment(kiji.Garment(d["positions"], d["faces"], uvs=d["uv"][d["faces"]]))
+        s.simulating = False
+        s.cut(np.repeat(eye[None], n, axis=0), rays=ring - eye)
+        if not (g.is_valid() and g.piece_count == 2 and len(g.border_loops()) == 3):
+            failed.append((k, n, g.piece_count, len(g.border_loops())))
+    assert not failed, f"strokes (number, events, pieces, border loops) that did not cut out the cap: {failed}"
 
 
 def test_an_opening_cut_across_the_grid_hangs_no_more_stretched_than_the_solve_allows_light_vertices():

@@ -886,6 +886,7 @@ class Knife {
   void resolve() {
     std::vector<Index> at(crossings_.size());
     for (std::size_t i = 0; i < crossings_.size(); ++i) at[i] = vertex_for(crossings_[i]);
+    drop_rounding_loops(at);
     // The line's pieces: between consecutive crossings, across the face they share.
     // A piece lies across the face the first crossing enters, when the second lies on that face's
     // edges (on one of them, or at a corner).
@@ -910,6 +911,54 @@ class Knife {
     if (closed_ && path_.size() > 1 && path_.front() == path_.back()) path_.pop_back();
     for (const auto& [face, chords] : chords_)
       for (const auto& [a, b] : chords) segments_.insert(edge_key(a, b));
+  }
+
+  // Where both ends of an edge lie on the line (each moved onto it), which end its crossing takes is
+  // rounding: the line can leave a vertex for its neighbours and come back, round a sliver of its
+  // ring that opening the line would cut off as a piece of its own. Such a loop, within the ring of
+  // the vertex it leaves and returns to, is dropped. A closed line has no start, so a loop over its
+  // end is found after turning it half round.
+  void drop_rounding_loops(std::vector<Index>& at) {
+    auto neighbours = [&](Index v, Index w) {
+      if (v >= inc_.size()) return false;
+      for (Index f : inc_[v])
+        for (Index u : s_.faces[f])
+          if (u == w) return true;
+      return false;
+    };
+    auto pass = [&](std::vector<std::size_t>& order) {
+      std::vector<std::size_t> kept;
+      for (std::size_t i : order) {
+        const Index v = at[i];
+        if (!kept.empty() && at[kept.back()] != v) {
+          // A loop within one vertex's ring crosses few edges: no need to look further back.
+          std::size_t p = kept.size();
+          while (p > 0 && at[kept[p - 1]] != v && kept.size() - p < 32) --p;
+          if (p > 0 && at[kept[p - 1]] != v) p = 0;
+          auto in_ring = [&](std::size_t k) {
+            const Crossing& x = crossings_[k];
+            return neighbours(v, at[k]) || ((x.a == v || neighbours(v, x.a)) && (x.b == v || neighbours(v, x.b)));
+          };
+          if (p > 0 && std::all_of(kept.begin() + p, kept.end(), in_ring))
+            kept.resize(p);
+        }
+        kept.push_back(i);
+      }
+      order = std::move(kept);
+    };
+    std::vector<std::size_t> order(at.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+    pass(order);
+    if (closed_ && order.size() > 2) {
+      std::rotate(order.begin(), order.begin() + order.size() / 2, order.end());
+      pass(order);
+    }
+    if (order.size() == at.size()) return;
+    std::vector<Crossing> crossings;
+    std::vector<Index> kept_at;
+    for (std::size_t i : order) crossings.push_back(crossings_[i]), kept_at.push_back(at[i]);
+    crossings_ = std::move(crossings);
+    at = std::move(kept_at);
   }
 
   Index vertex_for(const Crossing& x) {

@@ -614,7 +614,9 @@ int bench_command(const std::vector<std::string>& argv) {
     throw UsageError("--strokes must be between 1 and " + std::to_string(std::size(kStrokeOffsets)));
   const bool json = args.has("--json");
   auto say = [&](const char* fmt, auto... a) {
-    if (!json) std::printf(fmt, a...);
+    if (json) return;
+    if constexpr (sizeof...(a) == 0) std::fputs(fmt, stdout);  // no format to read: a plain line
+    else std::printf(fmt, a...);
     std::fflush(stdout);
   };
 

@@ -30,9 +30,11 @@ struct DecodeLimits {
   double world_extent = 1000;
 };
 
-// A garment's whole state (mesh with every property, material, texture, tacks, and where its cloth
-// sleeps: Garment::sleep_record), exactly: doubles are kept bit for bit, and vertex indices (holes
-// included) are kept. Bytes written before the sleep record was part of them decode, awake.
+// A garment's whole state (mesh with every property, material, texture, tacks, where its cloth
+// sleeps: Garment::sleep_record, and what its solver carries to the next step: Garment::step_record,
+// where it has one), exactly: doubles are kept bit for bit, and vertex indices (holes included) are
+// kept. Bytes written before the sleep record was part of them decode, awake; those written before
+// the step record, with none.
 std::string encode_garment(const Garment& garment);
 Garment decode_garment(std::string_view bytes, const DecodeLimits& limits = {});
 

@@ -19,6 +19,7 @@
 namespace kiji {
 
 struct SleepRecord;  // the solver's, opaque here (see Garment::sleep_record)
+struct StepRecord;   // the solver's, opaque here (see Garment::step_record)
 
 // The vertices of a mesh that are non-manifold: whose faces do not form one fan (a "bowtie").
 // O(n): one pass counts each vertex's incoming halfedges, one circulation per vertex compares.
@@ -92,7 +93,7 @@ class Garment {
   void set_pattern_scale(double metres_per_uv) { pattern_scale_ = metres_per_uv; }
 
   // Changed by every topology edit, copy and assignment, to a value no other garment has had: a
-  // solver rebuilds its arrays when it differs from the one it saw.
+  // solver rebuilds its arrays when it differs from the one it saw. An edit drops the step record.
   std::uint64_t topology_version() const { return topology_version_; }
   void bump_topology_version();
 
@@ -103,6 +104,14 @@ class Garment {
   // slept with, so an edit of any of them wakes it. Written by the solver; copies share it.
   const std::shared_ptr<const SleepRecord>& sleep_record() const { return sleep_record_; }
   void set_sleep_record(std::shared_ptr<const SleepRecord> record) { sleep_record_ = std::move(record); }
+
+  // What the solver carried from its last step to the next beyond the garment's own state: how it
+  // ordered the cloth, its collision margins, the body's hold, and the cloth settling towards sleep.
+  // A solver built anew for this garment with the same mesh (a session opened from its file, a peer
+  // after a checkpoint, an undo) takes it up, so it steps on exactly as the one that wrote it would
+  // have. Written by the solver after each step; copies share it.
+  const std::shared_ptr<const StepRecord>& step_record() const { return step_record_; }
+  void set_step_record(std::shared_ptr<const StepRecord> record) { step_record_ = std::move(record); }
 
   // One past the largest vertex index in use (removed vertices included): the size of flat arrays.
   std::size_t vertex_capacity() const { return mesh_.number_of_vertices() + mesh_.number_of_removed_vertices(); }
@@ -148,6 +157,7 @@ class Garment {
   VertexDoubleMap inverse_mass_;
   FaceIntMap panel_;
   std::shared_ptr<const SleepRecord> sleep_record_;
+  std::shared_ptr<const StepRecord> step_record_;
 };
 
 }  // namespace kiji

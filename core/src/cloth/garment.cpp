@@ -36,7 +36,10 @@ std::vector<Vertex> non_manifold_vertices(const Mesh& mesh) {
   return out;
 }
 
-void Garment::bump_topology_version() { topology_version_ = fresh_version(); }
+void Garment::bump_topology_version() {
+  topology_version_ = fresh_version();
+  step_record_.reset();  // a record is of the mesh its solver stepped
+}
 
 Garment::Garment() : topology_version_(fresh_version()) { attach_maps(); }
 
@@ -74,7 +77,8 @@ Garment::Garment(const Garment& other)
       texture_(other.texture_),
       pattern_scale_(other.pattern_scale_),
       topology_version_(fresh_version()),
-      sleep_record_(other.sleep_record_) {
+      sleep_record_(other.sleep_record_),
+      step_record_(other.step_record_) {
   attach_maps();
 }
 
@@ -89,6 +93,7 @@ Garment& Garment::operator=(const Garment& other) {
   pattern_scale_ = other.pattern_scale_;
   topology_version_ = fresh_version();  // a different mesh: solvers must rebuild
   sleep_record_ = other.sleep_record_;
+  step_record_ = other.step_record_;
   attach_maps();
   return *this;
 }
@@ -102,7 +107,8 @@ Garment::Garment(Garment&& other) noexcept
       texture_(std::move(other.texture_)),
       pattern_scale_(other.pattern_scale_),
       topology_version_(fresh_version()),
-      sleep_record_(std::move(other.sleep_record_)) {
+      sleep_record_(std::move(other.sleep_record_)),
+      step_record_(std::move(other.step_record_)) {
   attach_maps();
 }
 
@@ -116,6 +122,7 @@ Garment& Garment::operator=(Garment&& other) noexcept {
   pattern_scale_ = other.pattern_scale_;
   topology_version_ = fresh_version();
   sleep_record_ = std::move(other.sleep_record_);
+  step_record_ = std::move(other.step_record_);
   attach_maps();
   return *this;
 }

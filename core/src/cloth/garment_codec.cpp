@@ -1,11 +1,12 @@
 // The binary form of a garment (kiji/codec.h): its mesh with every property, material, texture,
-// tacks and sleep record, exactly.
+// tacks, sleep record and step record, exactly.
 #include "kiji/codec.h"
 
 #include "base/archive.h"
 #include "cloth/garment_soup.h"
 #include "cloth/sleep_record_io.h"
 #include "kiji/error.h"
+#include "sim/solver_state.h"
 
 #include <algorithm>
 
@@ -25,6 +26,20 @@ struct GarmentForm {
   detail::Soup soup;  // its edges are in `edges`
   std::vector<std::pair<std::uint64_t, detail::EdgeData>> edges;  // in key order: equal garments, equal bytes
   detail::SleepingVertices asleep;
+  // The step record (Garment::step_record), where the garment has one.
+  struct Step {
+    bool present = false;
+    std::uint64_t mesh = 0;
+    std::vector<Vec3> built_at;
+    std::vector<double> surprise, surprise_self;
+    std::vector<std::uint8_t> held_up;
+    bool sleep_ready = false;
+    std::array<double, 15> physics{};
+    std::vector<std::uint8_t> asleep;
+    std::vector<double> calm;
+    std::vector<std::uint64_t> block_key;
+    std::vector<Vec3> anchor;
+  } step;
 };
 
 // The garment's fields, in the order they are in the binary form: encode_garment and
@@ -109,13 +124,60 @@ void fields(A& a, Field<A, GarmentForm>& g, Field<A, Texture>& texture, const De
       a.require(k == 0 || asleep.vertices[k] > asleep.vertices[k - 1], "the sleeping vertices are not in ascending order");
     }
   }
+  // What the solver carried from its last step: only where there is one, so that a garment never
+  // stepped, or one written before this part, ends here.
+  auto& st = g.step;
+  if constexpr (A::reading) st.present = a.more();
+  if (st.present) {
+    a.u64(st.mesh);
+    a.list(st.built_at, limits.max_vertices, 24, "the number of the step record's vertices",
+           [&](auto& p) { a.vec3(p, "where a vertex lay when the solver was built"); });
+    a.require(st.built_at.size() == nv, "the step record is not of the garment's vertices");
+    a.resize(st.surprise, nv);
+    a.resize(st.surprise_self, nv);
+    a.resize(st.held_up, nv);
+    for (std::size_t i = 0; i < nv; ++i) {
+      a.finite(st.surprise[i], "a vertex's collision margin");
+      a.finite(st.surprise_self[i], "a vertex's self-collision margin");
+      a.u8(st.held_up[i]);
+    }
+    a.boolean(st.sleep_ready, "whether the solver had its sleeping blocks");
+    if (st.sleep_ready) {
+      for (auto& d : st.physics) a.finite(d, "the physics the cloth settled in");
+      const std::size_t blocks = a.count(st.asleep, SolverArrays::kMaxBlocks, 17, "the number of sleeping blocks");
+      a.resize(st.calm, blocks);
+      a.resize(st.block_key, blocks);
+      for (std::size_t b = 0; b < blocks; ++b) {
+        a.u8(st.asleep[b]);
+        a.finite(st.calm[b], "how long a block has been calm");
+        a.u64(st.block_key[b]);
+      }
+      a.resize(st.anchor, nv);
+      for (auto& p : st.anchor) a.vec3(p, "where a vertex's calm began");
+    }
+  }
   a.end(" after the garment");
 }
 
 }  // namespace
 
 std::string encode_garment(const Garment& g) {
-  GarmentForm form{g.name, g.material(), g.color, g.pattern_scale(), detail::to_soup(g), {}, detail::sleeping_vertices(g)};
+  GarmentForm form{g.name, g.material(), g.color, g.pattern_scale(), detail::to_soup(g), {}, detail::sleeping_vertices(g), {}};
+  if (const StepRecord* r = g.step_record().get(); r && r->built_at && r->built_at->size() == form.soup.vertices.size()) {
+    auto& st = form.step;
+    st.present = true;
+    st.mesh = r->mesh;
+    st.built_at = *r->built_at;
+    st.surprise = r->surprise;
+    st.surprise_self = r->surprise_self;
+    st.held_up = r->held_up;
+    st.sleep_ready = r->sleep_ready;
+    st.physics = r->physics;
+    st.asleep = r->asleep;
+    st.calm = r->calm;
+    st.block_key = r->block_key;
+    st.anchor = r->anchor;
+  }
   form.edges.assign(form.soup.edges.begin(), form.soup.edges.end());
   std::sort(form.edges.begin(), form.edges.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   detail::WriteArchive a;
@@ -147,6 +209,22 @@ Garment decode_garment(std::string_view bytes, const DecodeLimits& limits) {
   auto inverse_mass = m.property_map<Vertex, double>("v:inverse_mass").first;
   for (Vertex v : m.vertices()) inverse_mass[v] = s.vertices[v.idx()].inverse_mass;
   detail::restore_sleep_record(g, form.asleep);
+  if (form.step.present) {
+    auto r = std::make_shared<StepRecord>();
+    auto& st = form.step;
+    r->mesh = st.mesh;
+    r->built_at = std::make_shared<const std::vector<Vec3>>(std::move(st.built_at));
+    r->surprise = std::move(st.surprise);
+    r->surprise_self = std::move(st.surprise_self);
+    r->held_up = std::move(st.held_up);
+    r->sleep_ready = st.sleep_ready;
+    r->physics = st.physics;
+    r->asleep = std::move(st.asleep);
+    r->calm = std::move(st.calm);
+    r->block_key = std::move(st.block_key);
+    r->anchor = std::move(st.anchor);
+    g.set_step_record(std::move(r));
+  }
   return g;
 }
 

@@ -496,9 +496,29 @@ void rebuild(SolverArrays& s, const Garment& g) {
   s.held_up.assign(n, 0);
   for (Vertex v : m.vertices()) s.alive[v.idx()] = 1;
 
-  // Spatial order of the vertices (for collision clusters): Morton code of the current positions.
+  // A solver that stepped this mesh before left its record (a session opened from its file, a peer
+  // after a checkpoint, an undo): the arrays are built from where the cloth lay when that solver
+  // built its own, and take up its state, so that this one steps on as that one would have.
+  s.mesh_key = mesh_key(g);
+  s.carried = g.step_record();
+  if (s.carried && (s.carried->mesh != s.mesh_key || !s.carried->built_at || s.carried->built_at->size() != n ||
+                    s.carried->surprise.size() != n || s.carried->surprise_self.size() != n || s.carried->held_up.size() != n))
+    s.carried.reset();
+  if (s.carried) {
+    s.built_at = s.carried->built_at;
+    s.surprise = s.carried->surprise;
+    s.surprise_self = s.carried->surprise_self;
+    s.held_up = s.carried->held_up;
+  } else {
+    auto at = std::make_shared<std::vector<Vec3>>(n, Vec3::Zero());
+    for (Vertex v : m.vertices()) (*at)[v.idx()] = to_vec(m.point(v));
+    s.built_at = std::move(at);
+  }
+  const std::vector<Vec3>& built_at = *s.built_at;
+
+  // Spatial order of the vertices (for collision clusters): Morton code of where they lie.
   Box3 box;
-  for (Vertex v : m.vertices()) box.extend(to_vec(m.point(v)));
+  for (Vertex v : m.vertices()) box.extend(built_at[v.idx()]);
   std::vector<std::pair<std::uint32_t, int>> keyed;
   keyed.reserve(m.number_of_vertices());
   const Vec3 ext = box.isEmpty() ? Vec3::Ones() : Vec3(box.sizes().cwiseMax(1e-9));
@@ -507,7 +527,7 @@ void rebuild(SolverArrays& s, const Garment& g) {
     return spread_bits(std::uint32_t(q.x())) | (spread_bits(std::uint32_t(q.y())) << 1) |
            (spread_bits(std::uint32_t(q.z())) << 2);
   };
-  for (Vertex v : m.vertices()) keyed.emplace_back(morton(to_vec(m.point(v))), static_cast<int>(v.idx()));
+  for (Vertex v : m.vertices()) keyed.emplace_back(morton(built_at[v.idx()]), static_cast<int>(v.idx()));
   std::sort(keyed.begin(), keyed.end());
   s.order.clear();
   for (const auto& k : keyed) s.order.push_back(k.second);
@@ -636,13 +656,13 @@ void rebuild(SolverArrays& s, const Garment& g) {
   std::vector<Box3> item_box(s.tris.size());
   keyed.clear();
   for (std::size_t t = 0; t < s.tris.size(); ++t) {
-    for (int k = 0; k < 3; ++k) item_box[t].extend(to_vec(m.point(vtx(s.tris[t][k]))));
+    for (int k = 0; k < 3; ++k) item_box[t].extend(built_at[s.tris[t][k]]);
     keyed.emplace_back(morton(item_box[t].center()), static_cast<int>(t));
   }
   std::sort(keyed.begin(), keyed.end());
   cluster_tree(keyed, SolverArrays::kTriCluster, item_box, s.tri_tree, s.tcl_begin, s.tcl_items, s.tcl_leaf);
   item_box.assign(n, Box3());
-  for (Vertex v : m.vertices()) item_box[v.idx()].extend(to_vec(m.point(v)));
+  for (Vertex v : m.vertices()) item_box[v.idx()].extend(built_at[v.idx()]);
   cluster_tree(vertex_keys, SolverArrays::kVertCluster, item_box, s.vert_tree, s.vcl_begin, s.vcl_items, s.vcl_leaf);
   build_self_exclusions(s);
 
@@ -822,6 +842,7 @@ void Solver::step(Garment& garment, double dt) {
     }
   });
   if (fell_asleep) garment.set_sleep_record(solver_detail::sleep_record(s));
+  solver_detail::write_step_record(s, garment);
   for (auto& a : attachments_) a.from = a.target;
   finish_times();
 }

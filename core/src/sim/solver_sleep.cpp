@@ -103,6 +103,70 @@ void reset(SolverArrays& s, const SleepRecord* carried, const std::array<double,
   }
 }
 
+// Per block: its vertices' positions and inverse masses and its edges' rest lengths, as the arrays
+// have them, hashed: what the step after compares to find the blocks an edit disturbed.
+// The blocks asleep in the solver's last record `last` (null: none) and still asleep: unchanged
+// since (an edit would have woken them), so what the record has of them stands.
+std::vector<unsigned char> slept_through(const SolverArrays& s, const StepRecord* last) {
+  const std::size_t blocks = static_cast<std::size_t>(s.blocks);
+  std::vector<unsigned char> same(blocks, 0);
+  if (last && last->sleep_ready && last->asleep.size() == blocks && last->block_key.size() == blocks &&
+      last->anchor.size() == s.n)
+    for (std::size_t b = 0; b < blocks; ++b) same[b] = last->asleep[b] && s.asleep[b];
+  return same;
+}
+
+// Sums of the values' bits times odd constants, one per value and vertex (or edge): any one value
+// changed changes its block's key, at a few multiplications a vertex (each step writes them). The
+// blocks `same` marks keep the key of the record `last`.
+std::vector<std::uint64_t> block_keys(const SolverArrays& s, const std::vector<unsigned char>& same, const StepRecord* last) {
+  const std::size_t blocks = static_cast<std::size_t>(s.blocks);
+  std::vector<std::uint64_t> key(blocks, 0);
+  parallel::for_range(s.blocks, 1, [&](int b0, int b1) {
+    for (int b = b0; b < b1; ++b) {
+      if (same[b]) continue;
+      std::uint64_t sum = 0;
+      for (int k = s.block_start[b]; k < s.block_start[b + 1]; ++k) {
+        const int i = s.block_verts[k];
+        const std::uint64_t at = 2 * std::uint64_t(i) + 1;
+        sum += at * (bits_of(s.x[i].x()) * 0x9e3779b97f4a7c15ull + bits_of(s.x[i].y()) * 0xc2b2ae3d27d4eb4full +
+                     bits_of(s.x[i].z()) * 0x165667b19e3779f9ull + bits_of(s.im[i]) * 0xd6e8feb86659fd93ull);
+      }
+      key[b] = sum;
+    }
+  });
+  if (std::find(same.begin(), same.end(), 0) != same.end())
+    for (std::size_t k = 0; k < s.e_i.size() && k < s.e_rest.size(); ++k) {
+      const std::uint64_t r = (2 * std::uint64_t(k) + 1) * bits_of(s.e_rest[k]) * 0xff51afd7ed558ccdull;
+      key[s.block[s.e_i[k]]] += r;
+      key[s.block[s.e_j[k]]] += r;
+    }
+  for (std::size_t b = 0; b < blocks; ++b) key[b] = same[b] ? last->block_key[b] : mix(key[b]);
+  return key;
+}
+
+// Sleeping as the solver that wrote `r` left it; `edited` marks the blocks changed since its step
+// (a vertex moved, its mass or an edge's rest length changed, a sleeping vertex given a velocity),
+// which that solver would have found disturbed. False, changing nothing, where `r` is not of these
+// blocks.
+bool take_up(SolverArrays& s, const StepRecord& r, std::vector<unsigned char>& edited) {
+  const std::size_t blocks = static_cast<std::size_t>(s.blocks);
+  if (r.asleep.size() != blocks || r.calm.size() != blocks || r.block_key.size() != blocks || r.anchor.size() != s.n)
+    return false;
+  s.asleep = r.asleep;
+  s.calm = r.calm;
+  s.anchor = r.anchor;
+  const std::vector<std::uint64_t> now = block_keys(s, std::vector<unsigned char>(blocks, 0), nullptr);
+  edited.assign(blocks, 0);
+  for (std::size_t b = 0; b < blocks; ++b) {
+    edited[b] = now[b] != r.block_key[b];
+    if (s.asleep[b])
+      for (int k = s.block_start[b]; k < s.block_start[b + 1] && !edited[b]; ++k)
+        edited[b] = s.v[s.block_verts[k]] != Vec3::Zero();
+  }
+  return true;
+}
+
 void wake(SolverArrays& s, int b) {
   s.calm[b] = 0;
   if (!s.asleep[b]) return;
@@ -115,19 +179,30 @@ void wake(SolverArrays& s, int b) {
 void sleep_before_step(SolverArrays& s, const SolverParams& p, const Material& m,
                        const std::vector<unsigned char>& disturbed, const SleepRecord* carried) {
   s.sleeping = 0;
+  // The step record a rebuild took up is for this first step only.
+  const std::shared_ptr<const StepRecord> record = std::move(s.carried);
+  s.carried.reset();
   if (p.sleep_after <= 0) {
     s.sleep_ready = false;
     return;
   }
   const std::array<double, 15> physics = physics_of(p, m);
+  std::vector<unsigned char> edited;
   if (!s.sleep_ready || physics != s.physics) {
-    reset(s, s.sleep_ready ? nullptr : carried, physics);
+    if (!s.sleep_ready && record && record->sleep_ready) {
+      // The solver that wrote the record had its blocks: its sleep goes on, unless the physics
+      // changed since (that solver would then have woken every block).
+      reset(s, nullptr, physics);
+      if (record->physics == physics) take_up(s, *record, edited);
+    } else {
+      reset(s, s.sleep_ready ? nullptr : carried, physics);
+    }
     s.physics = physics;
     s.sleep_ready = true;
   }
   s.hold_awake.assign(s.blocks, 0);
   for (int b = 0; b < s.blocks; ++b)
-    if (disturbed[b]) {
+    if (disturbed[b] || (!edited.empty() && edited[b])) {
       wake(s, b);
       s.hold_awake[b] = 1;
     }
@@ -200,6 +275,54 @@ bool sleep_after_step(SolverArrays& s, const SolverParams& p, double dt) {
   for (int b = 0; b < blocks; ++b)
     if (s.asleep[b]) s.sleeping += s.block_start[b + 1] - s.block_start[b];
   return fell_asleep;
+}
+
+std::uint64_t mesh_key(const Garment& g) {
+  const Mesh& m = g.mesh();
+  std::uint64_t key = mix(g.vertex_capacity());
+  for (Vertex v : m.vertices()) key += mix(v.idx() + 0x51ed27ull);
+  for (Face f : m.faces()) {
+    std::array<std::uint64_t, 3> c{};
+    int k = 0;
+    for (Vertex v : CGAL::vertices_around_face(m.halfedge(f), m))
+      if (k < 3) c[k++] = v.idx();
+    const int first = static_cast<int>(std::min_element(c.begin(), c.end()) - c.begin());
+    std::rotate(c.begin(), c.begin() + first, c.end());
+    key += mix(mix(mix(c[0]) ^ c[1]) ^ c[2]);
+  }
+  return key;
+}
+
+void write_step_record(SolverArrays& s, Garment& g) {
+  // The record written last, where only this solver and the garment hold it (no copy of the
+  // garment kept it), is written over: a step of a small region of a large garment would
+  // otherwise spend a good part of its time making a new one.
+  const bool reuse = s.written && s.written.use_count() == 2 && g.step_record() == s.written;
+  if (!reuse) s.written = std::make_shared<StepRecord>();
+  StepRecord* r = s.written.get();
+  r->mesh = s.mesh_key;
+  r->built_at = s.built_at;
+  r->surprise = s.surprise;
+  r->surprise_self = s.surprise_self;
+  r->held_up = s.held_up;
+  if (s.sleep_ready) {
+    r->sleep_ready = true;
+    r->physics = s.physics;
+    const std::vector<unsigned char> same = slept_through(s, reuse ? r : nullptr);
+    r->block_key = block_keys(s, same, r);
+    if (std::find(same.begin(), same.end(), 1) == same.end()) {
+      r->anchor = s.anchor;
+    } else {
+      for (int b = 0; b < s.blocks; ++b)
+        if (!same[b])
+          for (int k = s.block_start[b]; k < s.block_start[b + 1]; ++k) r->anchor[s.block_verts[k]] = s.anchor[s.block_verts[k]];
+    }
+    r->asleep = s.asleep;
+    r->calm = s.calm;
+  } else {
+    r->sleep_ready = false;
+  }
+  if (!reuse) g.set_step_record(s.written);
 }
 
 std::shared_ptr<const SleepRecord> sleep_record(SolverArrays& s) {

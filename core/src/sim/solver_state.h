@@ -29,12 +29,36 @@ struct SleepRecord {
   std::vector<std::uint64_t> key;    // its edges, their rest lengths and its inverse mass, hashed
 };
 
+// What a solver carries from one step to the next beyond the garment's own state
+// (Garment::step_record), for a solver built anew on the same mesh to step on as this one would.
+struct StepRecord {
+  std::uint64_t mesh = 0;  // the mesh's vertices and faces, hashed (mesh_key): whose record it is
+  // Where the vertices lay when the arrays were built: their order, and from it the blocks, the
+  // constraints' order, the long-range limits and the collision clusters. Shared until a rebuild.
+  std::shared_ptr<const std::vector<Vec3>> built_at;
+  std::vector<double> surprise, surprise_self;  // per vertex, as SolverArrays
+  std::vector<unsigned char> held_up;
+  // Sleeping as the last step left it (ready: the solver had its blocks; see solver_sleep.cpp):
+  // per block whether it sleeps, how long it has been calm, and its vertices' positions, inverse
+  // masses and edges' rest lengths hashed (an edit since the step disturbs it); per vertex its anchor.
+  bool sleep_ready = false;
+  std::array<double, 15> physics{};
+  std::vector<unsigned char> asleep;
+  std::vector<double> calm;
+  std::vector<std::uint64_t> block_key;
+  std::vector<Vec3> anchor;
+};
+
 struct SolverArrays {
   // ---- identity of what the arrays mirror ----
   const Garment* garment = nullptr;
   std::uint64_t topology = 0;
   std::size_t n = 0;  // vertex capacity
   bool built = false;
+  std::uint64_t mesh_key = 0;                         // solver_detail::mesh_key at the last rebuild
+  std::shared_ptr<const std::vector<Vec3>> built_at;  // where the vertices lay for it (StepRecord)
+  std::shared_ptr<const StepRecord> carried;          // the record it took up, until its sleep is too
+  std::shared_ptr<StepRecord> written;                // the record it gave the garment last
 
   // ---- per vertex ----
   std::vector<unsigned char> alive;   // vertex exists
@@ -306,6 +330,11 @@ void sleep_before_step(SolverArrays& s, const SolverParams& p, const Material& m
                        const SleepRecord* carried);
 // Returns whether a block fell asleep.
 bool sleep_after_step(SolverArrays& s, const SolverParams& p, double dt);
+// The garment's vertices (capacity and which are alive) and faces, hashed whatever the faces' order
+// and first corner: a step record is this mesh's when its key is this.
+std::uint64_t mesh_key(const Garment& g);
+// Gives the garment what the solver carries to its next step (Garment::step_record), after a step.
+void write_step_record(SolverArrays& s, Garment& g);
 // The record of where the cloth sleeps now, for the garment (see Garment::sleep_record).
 std::shared_ptr<const SleepRecord> sleep_record(SolverArrays& s);
 }  // namespace solver_detail

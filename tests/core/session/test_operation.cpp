@@ -480,9 +480,21 @@ TEST(GarmentCodec, ValuesOutOfRangeAreRefusedSayingWhatAndWhere) {
   const std::size_t faces = vertices + 4 * 57;
   EXPECT_EQ(refusal([&] { decode_garment(patched(faces + 4 + 4, std::uint32_t(9))); }),
             "garment data is malformed at byte 363: face 0 uses a vertex that does not exist");
+  // After the sleeping vertices, a step record where the garment was stepped: bytes there are read as
+  // one, and bytes after one are left over.
   EXPECT_EQ(refusal([&] { decode_garment(bytes + "z"); }),
-            "garment data is malformed at byte " + std::to_string(bytes.size()) +
+            "garment data is malformed at byte " + std::to_string(bytes.size()) + ": ends early (8 bytes wanted, 1 left)");
+  Solver solver;
+  solver.step(small, 1.0 / 60);
+  const std::string stepped = encode_garment(small);
+  ASSERT_GT(stepped.size(), bytes.size()) << "a stepped garment carries its step record";
+  EXPECT_EQ(refusal([&] { decode_garment(stepped + "z"); }),
+            "garment data is malformed at byte " + std::to_string(stepped.size()) +
                 ": 1 bytes are left over after the garment");
+  EXPECT_EQ(refusal([&] { decode_garment(stepped.substr(0, bytes.size() + 8) + std::string(4, '\xff')); }),
+            "garment data is malformed at byte " + std::to_string(bytes.size() + 12) +
+                ": the number of the step record's vertices is 4294967295, over the limit of " +
+                std::to_string(DecodeLimits{}.max_vertices));
   const std::string no_faces = bytes.substr(0, faces) + std::string(16, '\0');
   EXPECT_EQ(refusal([&] { decode_garment(no_faces); }), "garment data has no faces: a garment needs at least one triangle");
 }

@@ -26,19 +26,12 @@ struct GarmentForm {
   detail::Soup soup;  // its edges are in `edges`
   std::vector<std::pair<std::uint64_t, detail::EdgeData>> edges;  // in key order: equal garments, equal bytes
   detail::SleepingVertices asleep;
-  // The step record (Garment::step_record), where the garment has one.
+  // The step record (Garment::step_record), where the garment has one; its positions apart (the
+  // record shares them, the form reads them into a list of its own).
   struct Step {
     bool present = false;
-    std::uint64_t mesh = 0;
+    StepRecord record;
     std::vector<Vec3> built_at;
-    std::vector<double> surprise, surprise_self;
-    std::vector<std::uint8_t> held_up;
-    bool sleep_ready = false;
-    std::array<double, 15> physics{};
-    std::vector<std::uint8_t> asleep;
-    std::vector<double> calm;
-    std::vector<std::uint64_t> block_key;
-    std::vector<Vec3> anchor;
   } step;
 };
 
@@ -126,13 +119,14 @@ void fields(A& a, Field<A, GarmentForm>& g, Field<A, Texture>& texture, const De
   }
   // What the solver carried from its last step: only where there is one, so that a garment never
   // stepped, or one written before this part, ends here.
-  auto& st = g.step;
-  if constexpr (A::reading) st.present = a.more();
-  if (st.present) {
+  auto& step = g.step;
+  auto& st = step.record;
+  if constexpr (A::reading) step.present = a.more();
+  if (step.present) {
     a.u64(st.mesh);
-    a.list(st.built_at, limits.max_vertices, 24, "the number of the step record's vertices",
+    a.list(step.built_at, limits.max_vertices, 24, "the number of the step record's vertices",
            [&](auto& p) { a.vec3(p, "where a vertex lay when the solver was built"); });
-    a.require(st.built_at.size() == nv, "the step record is not of the garment's vertices");
+    a.require(step.built_at.size() == nv, "the step record is not of the garment's vertices");
     a.resize(st.surprise, nv);
     a.resize(st.surprise_self, nv);
     a.resize(st.held_up, nv);
@@ -164,19 +158,9 @@ void fields(A& a, Field<A, GarmentForm>& g, Field<A, Texture>& texture, const De
 std::string encode_garment(const Garment& g) {
   GarmentForm form{g.name, g.material(), g.color, g.pattern_scale(), detail::to_soup(g), {}, detail::sleeping_vertices(g), {}};
   if (const StepRecord* r = g.step_record().get(); r && r->built_at && r->built_at->size() == form.soup.vertices.size()) {
-    auto& st = form.step;
-    st.present = true;
-    st.mesh = r->mesh;
-    st.built_at = *r->built_at;
-    st.surprise = r->surprise;
-    st.surprise_self = r->surprise_self;
-    st.held_up = r->held_up;
-    st.sleep_ready = r->sleep_ready;
-    st.physics = r->physics;
-    st.asleep = r->asleep;
-    st.calm = r->calm;
-    st.block_key = r->block_key;
-    st.anchor = r->anchor;
+    form.step.present = true;
+    form.step.record = *r;
+    form.step.built_at = *r->built_at;
   }
   form.edges.assign(form.soup.edges.begin(), form.soup.edges.end());
   std::sort(form.edges.begin(), form.edges.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
@@ -210,20 +194,8 @@ Garment decode_garment(std::string_view bytes, const DecodeLimits& limits) {
   for (Vertex v : m.vertices()) inverse_mass[v] = s.vertices[v.idx()].inverse_mass;
   detail::restore_sleep_record(g, form.asleep);
   if (form.step.present) {
-    auto r = std::make_shared<StepRecord>();
-    auto& st = form.step;
-    r->mesh = st.mesh;
-    r->built_at = std::make_shared<const std::vector<Vec3>>(std::move(st.built_at));
-    r->surprise = std::move(st.surprise);
-    r->surprise_self = std::move(st.surprise_self);
-    r->held_up = std::move(st.held_up);
-    r->sleep_ready = st.sleep_ready;
-    r->physics = st.physics;
-    r->asleep = std::move(st.asleep);
-    r->calm = std::move(st.calm);
-    r->block_key = std::move(st.block_key);
-    r->anchor = std::move(st.anchor);
-    g.set_step_record(std::move(r));
+    form.step.record.built_at = std::make_shared<const std::vector<Vec3>>(std::move(form.step.built_at));
+    g.set_step_record(std::make_shared<const StepRecord>(std::move(form.step.record)));
   }
   return g;
 }

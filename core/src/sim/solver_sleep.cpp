@@ -15,6 +15,10 @@
 // starts asleep. Without it, each rebuild woke the whole garment, and a garment put to sleep while
 // it still crept (less than sleep_distance in sleep_after) crept on for seconds, every step
 // costing what the whole garment costs.
+//
+// The step record (Garment::step_record) is written here too, after every step: most of it is the
+// sleep a solver built anew for the same mesh takes up (which blocks sleep, how long the others have
+// been calm, each block's key); the rest is the order and the margins solver.cpp builds with.
 #include "base/parallel.h"
 #include "cloth/sleep_record_io.h"
 #include "sim/solver_state.h"
@@ -103,8 +107,6 @@ void reset(SolverArrays& s, const SleepRecord* carried, const std::array<double,
   }
 }
 
-// Per block: its vertices' positions and inverse masses and its edges' rest lengths, as the arrays
-// have them, hashed: what the step after compares to find the blocks an edit disturbed.
 // The blocks asleep in the solver's last record `last` (null: none) and still asleep: unchanged
 // since (an edit would have woken them), so what the record has of them stands.
 std::vector<unsigned char> slept_through(const SolverArrays& s, const StepRecord* last) {
@@ -116,9 +118,10 @@ std::vector<unsigned char> slept_through(const SolverArrays& s, const StepRecord
   return same;
 }
 
-// Sums of the values' bits times odd constants, one per value and vertex (or edge): any one value
-// changed changes its block's key, at a few multiplications a vertex (each step writes them). The
-// blocks `same` marks keep the key of the record `last`.
+// Per block: its vertices' positions and inverse masses and its edges' rest lengths, as the arrays
+// have them, hashed: what the step after compares to find the blocks an edit disturbed. Sums of the
+// values' bits times odd constants (any one value changed changes its block's key, at a few
+// multiplications a vertex: each step writes them). The blocks `same` marks keep `last`'s key.
 std::vector<std::uint64_t> block_keys(const SolverArrays& s, const std::vector<unsigned char>& same, const StepRecord* last) {
   const std::size_t blocks = static_cast<std::size_t>(s.blocks);
   std::vector<std::uint64_t> key(blocks, 0);

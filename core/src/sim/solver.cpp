@@ -239,13 +239,21 @@ void schedule(std::size_t count, std::size_t n, const std::vector<int>& block, i
   }
 }
 
-// The long-range limits, level by level: anchors at least S edges apart (greedy in Morton
-// order), each joined to the anchors within 2 S edges by the shortest rest-length path.
+// The long-range limits, level by level: anchors at least S edges apart, each joined to the
+// anchors within 2 S edges by the shortest rest-length path that the level searches.
 //
-// The anchor taken at an unmarked vertex is the one of it and its unmarked neighbours (on the same
-// side of the outline: inside, or on it) with the most edges, the one that reaches the most cloth
-// within S - 1 edges: so the anchors, and the limits every substep pays for, do not follow the
-// triangulation's pattern of diagonals (on a grid, every second vertex instead of every fourth).
+// The two finest levels (S = 2, 4) take their anchors greedily in Morton order and search the
+// cloth's edges. The anchor taken at an unmarked vertex is the one of it and its unmarked
+// neighbours (on the same side of the outline: inside, or on it) with the most edges, the one that
+// reaches the most cloth within S - 1 edges: so the anchors, and the limits every substep pays
+// for, do not follow the triangulation's pattern of diagonals (on a grid, every second vertex
+// instead of every fourth).
+//
+// Each coarser level takes its anchors from the finer level's, in their order, and searches the
+// finer level's limits instead of the cloth (each a step of its path's edges, the path no longer
+// than 2 S edges): a search then meets a few dozen anchors where it met thousands of vertices, and
+// the four coarse levels cost less than one fine one. A coarse limit's length is a path through
+// finer anchors, a little longer than the cloth's shortest where that passes between them.
 void build_long_range(SolverArrays& s) {
   s.l_i.clear();
   s.l_j.clear();
@@ -253,28 +261,36 @@ void build_long_range(SolverArrays& s) {
   const std::size_t n = s.n;
   std::vector<int> hop(n, -1), mark(n, 0);
   std::vector<char> anchor(n, 0);
-  std::vector<int> touched, queue;
+  std::vector<int> touched, queue, anchors, finer;
   using QE = std::pair<double, int>;
   std::vector<std::array<int, 2>> li;
   std::vector<double> lr;
+  std::vector<int> lh;  // each limit's path, in edges
   std::vector<std::vector<std::size_t>> levels;
   std::vector<int> tri_count(n, 0);  // fewer triangles than edges: a vertex on the outline
   for (const auto& t : s.tris)
     for (int k = 0; k < 3; ++k) ++tri_count[t[k]];
   auto degree = [&](int v) { return s.nbr_begin[v + 1] - s.nbr_begin[v]; };
   auto outline = [&](int v) { return tri_count[v] < degree(v); };
+  // The graph a level searches: for each vertex, its neighbours, the rest length to each and how
+  // many of the cloth's edges that is.
+  std::vector<int> g_begin = s.nbr_begin, g_to = s.nbr, g_edges(s.nbr.size(), 1);
+  std::vector<double> g_len = s.nbr_rest;
   for (int S = 2; S <= 64; S *= 2) {
-    // Anchors: every vertex within S-1 edges of one, no two closer than S edges.
+    const bool fine = S <= 4;
+    // Anchors: no two closer than S edges; every vertex (every finer anchor) within S - 1 of one.
     std::fill(anchor.begin(), anchor.end(), 0);
     std::fill(mark.begin(), mark.end(), 0);
-    std::vector<int> anchors;
-    for (int a : s.order) {
+    finer.swap(anchors);
+    anchors.clear();
+    for (int a : fine ? s.order : finer) {
       if (mark[a]) continue;
       const int first = a;
-      for (int k = s.nbr_begin[first]; k < s.nbr_begin[first + 1]; ++k) {
-        const int w = s.nbr[k];
-        if (!mark[w] && outline(w) == outline(first) && degree(w) > degree(a)) a = w;
-      }
+      if (fine)
+        for (int k = s.nbr_begin[first]; k < s.nbr_begin[first + 1]; ++k) {
+          const int w = s.nbr[k];
+          if (!mark[w] && outline(w) == outline(first) && degree(w) > degree(a)) a = w;
+        }
       anchor[a] = 1;
       anchors.push_back(a);
       queue.assign(1, a);
@@ -296,6 +312,26 @@ void build_long_range(SolverArrays& s) {
       for (int u : touched) hop[u] = -1;
     }
     if (anchors.size() < 2) break;
+    if (!fine) {  // the finer level's limits, both ways
+      const std::vector<std::size_t>& level = levels.back();
+      g_begin.assign(n + 1, 0);
+      for (std::size_t k : level) {
+        ++g_begin[li[k][0] + 1];
+        ++g_begin[li[k][1] + 1];
+      }
+      for (std::size_t i = 0; i < n; ++i) g_begin[i + 1] += g_begin[i];
+      g_to.resize(g_begin[n]);
+      g_len.resize(g_begin[n]);
+      g_edges.resize(g_begin[n]);
+      std::vector<int> fill(g_begin.begin(), g_begin.end() - 1);
+      for (std::size_t k : level)
+        for (int e = 0; e < 2; ++e) {
+          const int f = fill[li[k][e]]++;
+          g_to[f] = li[k][1 - e];
+          g_len[f] = lr[k];
+          g_edges[f] = lh[k];
+        }
+    }
     std::size_t before = li.size();
     // Join anchors: Dijkstra on rest lengths, no further than 2 S edges. The anchors in contiguous
     // pieces, in parallel, each piece with its own scratch and its own list, joined in anchor order
@@ -304,6 +340,7 @@ void build_long_range(SolverArrays& s) {
     const int pieces = std::min(na, 4 * std::max(1, parallel::thread_count()));
     std::vector<std::vector<std::array<int, 2>>> piece_li(pieces);
     std::vector<std::vector<double>> piece_lr(pieces);
+    std::vector<std::vector<int>> piece_lh(pieces);
     parallel::for_range(pieces, 1, [&](int p0, int p1) {
       std::vector<double> dist(n, std::numeric_limits<double>::infinity());
       std::vector<int> hops(n, -1), reached;
@@ -323,15 +360,16 @@ void build_long_range(SolverArrays& s) {
             if (u != a && anchor[u] && u > a) {
               piece_li[piece].push_back({a, u});
               piece_lr[piece].push_back(d);
+              piece_lh[piece].push_back(hops[u]);
             }
-            if (hops[u] >= 2 * S) continue;
-            for (int k = s.nbr_begin[u]; k < s.nbr_begin[u + 1]; ++k) {
-              const int w = s.nbr[k];
-              const double nd = d + s.nbr_rest[k];
+            for (int k = g_begin[u]; k < g_begin[u + 1]; ++k) {
+              if (hops[u] + g_edges[k] > 2 * S) continue;
+              const int w = g_to[k];
+              const double nd = d + g_len[k];
               if (nd < dist[w]) {
                 if (!std::isfinite(dist[w])) reached.push_back(w);
                 dist[w] = nd;
-                hops[w] = hops[u] + 1;
+                hops[w] = hops[u] + g_edges[k];
                 pq.push({nd, w});
               }
             }
@@ -346,6 +384,7 @@ void build_long_range(SolverArrays& s) {
     for (int piece = 0; piece < pieces; ++piece) {
       li.insert(li.end(), piece_li[piece].begin(), piece_li[piece].end());
       lr.insert(lr.end(), piece_lr[piece].begin(), piece_lr[piece].end());
+      lh.insert(lh.end(), piece_lh[piece].begin(), piece_lh[piece].end());
     }
     std::vector<std::size_t> idx;
     for (std::size_t k = before; k < li.size(); ++k) idx.push_back(k);

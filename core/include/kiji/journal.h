@@ -28,8 +28,9 @@ class GarmentSnapshot {
   GarmentSnapshot(const std::vector<Garment>& garments, const GarmentSnapshot* previous);
   std::vector<Garment> garments() const;  // the garments as they were, textures included
   std::size_t size() const { return garments_.size(); }
-  // Memory held, counting each texture only if `counted` has not seen it (and adding it there).
-  std::size_t bytes(std::vector<const Texture*>& counted) const;
+  // Memory held, counting what snapshots share (a texture, the solver's records) only if `counted`
+  // has not seen it (and adding it there).
+  std::size_t bytes(std::vector<const void*>& counted) const;
 
  private:
   std::vector<Garment> garments_;  // without their textures
@@ -87,7 +88,7 @@ class Journal {
   std::size_t dropped_ = 0;
 };
 
-// Approximate memory of a garment: its mesh, property maps and texture.
+// Approximate memory of a garment: its mesh, property maps, the solver's records and its texture.
 std::size_t garment_bytes(const Garment& garment, bool with_texture = true);
 
 }  // namespace kiji

@@ -1,13 +1,16 @@
 #include "kiji/journal.h"
 
 #include "kiji/error.h"
+#include "sim/solver_state.h"
 
 #include <algorithm>
 #include <cstring>
 
 namespace kiji {
 
-std::size_t garment_bytes(const Garment& g, bool with_texture) {
+namespace {
+// The garment without its records and texture: its mesh and property maps.
+std::size_t mesh_bytes(const Garment& g) {
   const Mesh& m = g.mesh();
   const std::size_t v = g.vertex_capacity();
   const std::size_t h = m.number_of_halfedges() + m.number_of_removed_halfedges();
@@ -16,9 +19,31 @@ std::size_t garment_bytes(const Garment& g, bool with_texture) {
   // Surface_mesh's connectivity and removed flags, then Kiji's property maps (point, velocity,
   // inverse mass; uv; rest length, tear threshold; panel).
   std::size_t bytes = v * (4 + 1 + 24 + 24 + 8) + h * (16 + 16) + e * (1 + 8 + 8) + f * (4 + 1 + 4);
-  bytes += g.tacks.size() * 8 + sizeof(Garment);
-  if (with_texture) bytes += g.texture().rgba.size();
+  return bytes + g.tacks.size() * 8 + sizeof(Garment);
+}
+
+// The solver's records a garment carries (docs/solver.md), each counted once over `counted`: a
+// snapshot shares them with the garment and with the snapshots taken while no step ran between,
+// and every step record of one build shares the positions the build was taken from.
+std::size_t record_bytes(const Garment& g, std::vector<const void*>& counted) {
+  auto first = [&](const void* p) {
+    if (!p || std::find(counted.begin(), counted.end(), p) != counted.end()) return false;
+    counted.push_back(p);
+    return true;
+  };
+  std::size_t bytes = 0;
+  if (const auto& r = g.sleep_record(); first(r.get())) bytes += bytes_of(*r);
+  if (const auto& r = g.step_record(); first(r.get())) {
+    bytes += bytes_of(*r);
+    if (first(r->built_at.get())) bytes += r->built_at->size() * sizeof(Vec3);
+  }
   return bytes;
+}
+}  // namespace
+
+std::size_t garment_bytes(const Garment& g, bool with_texture) {
+  std::vector<const void*> counted;
+  return mesh_bytes(g) + record_bytes(g, counted) + (with_texture ? g.texture().rgba.size() : 0);
 }
 
 GarmentSnapshot::GarmentSnapshot(const std::vector<Garment>& garments, const GarmentSnapshot* previous) {
@@ -48,9 +73,9 @@ std::vector<Garment> GarmentSnapshot::garments() const {
   return out;
 }
 
-std::size_t GarmentSnapshot::bytes(std::vector<const Texture*>& counted) const {
+std::size_t GarmentSnapshot::bytes(std::vector<const void*>& counted) const {
   std::size_t total = 0;
-  for (const Garment& g : garments_) total += garment_bytes(g, false);
+  for (const Garment& g : garments_) total += mesh_bytes(g) + record_bytes(g, counted);
   for (const auto& t : textures_) {
     if (std::find(counted.begin(), counted.end(), t.get()) != counted.end()) continue;
     counted.push_back(t.get());
@@ -68,7 +93,7 @@ void Journal::push(JournalEntry entry) {
 
 void Journal::enforce_limit() {
   auto total = [&] {
-    std::vector<const Texture*> counted;
+    std::vector<const void*> counted;
     std::size_t bytes = 0;
     for (const JournalEntry& e : entries_) bytes += e.before.bytes(counted) + e.after.bytes(counted);
     return bytes;

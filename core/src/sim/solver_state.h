@@ -49,6 +49,16 @@ struct StepRecord {
   std::vector<Vec3> anchor;
 };
 
+// Memory a record holds (the journal's history budget counts it), its shared positions apart.
+inline std::size_t bytes_of(const SleepRecord& r) {
+  return sizeof(r) + r.at.size() * sizeof(Vec3) + r.key.size() * sizeof(std::uint64_t);
+}
+inline std::size_t bytes_of(const StepRecord& r) {
+  return sizeof(r) + (r.surprise.size() + r.surprise_self.size() + r.calm.size()) * sizeof(double) +
+         r.held_up.size() + r.asleep.size() + r.block_key.size() * sizeof(std::uint64_t) +
+         r.anchor.size() * sizeof(Vec3);
+}
+
 struct SolverArrays {
   // ---- identity of what the arrays mirror ----
   const Garment* garment = nullptr;

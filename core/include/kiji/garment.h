@@ -93,7 +93,7 @@ class Garment {
   void set_pattern_scale(double metres_per_uv) { pattern_scale_ = metres_per_uv; }
 
   // Changed by every topology edit, copy and assignment, to a value no other garment has had: a
-  // solver rebuilds its arrays when it differs from the one it saw. An edit drops the step record.
+  // solver rebuilds its arrays when it differs from the one it saw.
   std::uint64_t topology_version() const { return topology_version_; }
   void bump_topology_version();
 
@@ -109,7 +109,9 @@ class Garment {
   // ordered the cloth, its collision margins, the body's hold, and the cloth settling towards sleep.
   // A solver built anew for this garment with the same mesh (a session opened from its file, a peer
   // after a checkpoint, an undo) takes it up, so it steps on exactly as the one that wrote it would
-  // have. Written by the solver after each step; copies share it.
+  // have. After an edit, a solver takes from it only the long-range anchors of the vertices the
+  // edit kept, so that the edit changes the limits only around itself. Written by the solver after
+  // each step; copies share it.
   const std::shared_ptr<const StepRecord>& step_record() const { return step_record_; }
   void set_step_record(std::shared_ptr<const StepRecord> record) { step_record_ = std::move(record); }
 

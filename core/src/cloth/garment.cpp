@@ -37,8 +37,9 @@ std::vector<Vertex> non_manifold_vertices(const Mesh& mesh) {
 }
 
 void Garment::bump_topology_version() {
+  // The step record stays: a solver's rebuild takes from it the long-range anchors of the vertices
+  // an edit kept, and nothing else of it (the rest is of the mesh before; solver.cpp, rebuild).
   topology_version_ = fresh_version();
-  step_record_.reset();  // a record is of the mesh its solver stepped
 }
 
 Garment::Garment() : topology_version_(fresh_version()) { attach_maps(); }
@@ -277,7 +278,8 @@ void Garment::compact() {
   std::unordered_map<std::uint32_t, Vertex> now;
   for (Vertex v : mesh_.vertices()) now[old_index[v]] = v;
   mesh_.remove_property_map(old_index);
-  sleep_record_.reset();  // it is by vertex index
+  sleep_record_.reset();  // both are by vertex index
+  step_record_.reset();
   for (auto& [a, b] : tacks) {
     a = now.at(a.idx());
     b = now.at(b.idx());

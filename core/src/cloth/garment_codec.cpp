@@ -32,6 +32,7 @@ struct GarmentForm {
     bool present = false;
     StepRecord record;
     std::vector<Vec3> built_at;
+    std::vector<std::vector<std::uint32_t>> anchors;  // level by level
   } step;
 };
 
@@ -149,6 +150,15 @@ void fields(A& a, Field<A, GarmentForm>& g, Field<A, Texture>& texture, const De
       a.resize(st.anchor, nv);
       for (auto& p : st.anchor) a.vec3(p, "where a vertex's calm began");
     }
+    // The long-range anchors (records written before this part end here; a solver then sweeps
+    // for its anchors anew).
+    if (a.more())
+      a.list(step.anchors, 6, 4, "the number of the step record's long-range levels", [&](auto& level) {
+        a.list(level, limits.max_vertices, 4, "the number of a long-range level's anchors", [&](auto& v) {
+          a.u32(v);
+          a.require(v < nv, "a long-range anchor is not a vertex of the garment");
+        });
+      });
   }
   a.end(" after the garment");
 }
@@ -157,10 +167,24 @@ void fields(A& a, Field<A, GarmentForm>& g, Field<A, Texture>& texture, const De
 
 std::string encode_garment(const Garment& g) {
   GarmentForm form{g.name, g.material(), g.color, g.pattern_scale(), detail::to_soup(g), {}, detail::sleeping_vertices(g), {}};
-  if (const StepRecord* r = g.step_record().get(); r && r->built_at && r->built_at->size() == form.soup.vertices.size()) {
+  // A record of the mesh before an edit (no step since) is written too, at the garment's size (its
+  // vertices past the record's as none it had): a solver takes the long-range anchors from it, and
+  // must find the same after a save or on a peer that joins.
+  const std::size_t nv = form.soup.vertices.size();
+  if (const StepRecord* r = g.step_record().get(); r && r->built_at && r->built_at->size() <= nv) {
     form.step.present = true;
     form.step.record = *r;
     form.step.built_at = *r->built_at;
+    if (r->anchors)
+      for (const std::vector<int>& level : *r->anchors) form.step.anchors.emplace_back(level.begin(), level.end());
+    StepRecord& st = form.step.record;
+    if (r->built_at->size() < nv) {
+      form.step.built_at.resize(nv, Vec3::Zero());
+      st.surprise.resize(nv, 0.0);
+      st.surprise_self.resize(nv, 0.0);
+      st.held_up.resize(nv, 0);
+      if (st.sleep_ready) st.anchor.resize(nv, Vec3::Zero());
+    }
   }
   form.edges.assign(form.soup.edges.begin(), form.soup.edges.end());
   std::sort(form.edges.begin(), form.edges.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
@@ -195,6 +219,11 @@ Garment decode_garment(std::string_view bytes, const DecodeLimits& limits) {
   detail::restore_sleep_record(g, form.asleep);
   if (form.step.present) {
     form.step.record.built_at = std::make_shared<const std::vector<Vec3>>(std::move(form.step.built_at));
+    if (!form.step.anchors.empty()) {
+      auto levels = std::make_shared<std::vector<std::vector<int>>>();
+      for (const auto& level : form.step.anchors) levels->emplace_back(level.begin(), level.end());
+      form.step.record.anchors = std::move(levels);
+    }
     g.set_step_record(std::make_shared<const StepRecord>(std::move(form.step.record)));
   }
   return g;

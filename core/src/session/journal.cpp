@@ -24,7 +24,7 @@ std::size_t mesh_bytes(const Garment& g) {
 
 // The solver's records a garment carries (docs/solver.md), each counted once over `counted`: a
 // snapshot shares them with the garment and with the snapshots taken while no step ran between,
-// and every step record of one build shares the positions the build was taken from.
+// and every step record of one build shares the positions the build was taken from and its anchors.
 std::size_t record_bytes(const Garment& g, std::vector<const void*>& counted) {
   auto first = [&](const void* p) {
     if (!p || std::find(counted.begin(), counted.end(), p) != counted.end()) return false;
@@ -36,6 +36,8 @@ std::size_t record_bytes(const Garment& g, std::vector<const void*>& counted) {
   if (const auto& r = g.step_record(); first(r.get())) {
     bytes += bytes_of(*r);
     if (first(r->built_at.get())) bytes += r->built_at->size() * sizeof(Vec3);
+    if (first(r->anchors.get()))
+      for (const auto& level : *r->anchors) bytes += level.size() * sizeof(int);
   }
   return bytes;
 }

@@ -254,11 +254,32 @@ void schedule(std::size_t count, std::size_t n, const std::vector<int>& block, i
 // than 2 S edges): a search then meets a few dozen anchors where it met thousands of vertices, and
 // the four coarse levels cost less than one fine one. A coarse limit's length is a path through
 // finer anchors, a little longer than the cloth's shortest where that passes between them.
-void build_long_range(SolverArrays& s) {
+//
+// The anchors of `was` (a build before: each level's, in the order it took them) are taken first,
+// then the sweep fills what they leave.
+//
+// With `reuse` (s.searched holds the last build's fine searches and the cloth they read), a fine
+// search runs again only from an anchor within 2 S edges of a vertex whose neighbours or rest
+// lengths changed or whose being an anchor did; the others' limits are as they were, bit for bit.
+void build_long_range(SolverArrays& s, bool reuse, const std::vector<std::vector<int>>* was) {
   s.l_i.clear();
   s.l_j.clear();
   s.l_rest.clear();
+  s.searches = 0;
   const std::size_t n = s.n;
+  // The vertices whose neighbours (in order) or rest lengths are not those the last build read.
+  std::vector<char> changed(n, 1);
+  if (reuse) {
+    const std::size_t old_n = s.searched_nbr_begin.empty() ? 0 : s.searched_nbr_begin.size() - 1;
+    for (std::size_t v = 0; v < std::min(n, old_n); ++v) {
+      const int b = s.nbr_begin[v], e = s.nbr_begin[v + 1], ob = s.searched_nbr_begin[v];
+      if (e - b != s.searched_nbr_begin[v + 1] - ob) continue;
+      bool same = true;
+      for (int k = 0; k < e - b && same; ++k)
+        same = s.nbr[b + k] == s.searched_nbr[ob + k] && s.nbr_rest[b + k] == s.searched_nbr_rest[ob + k];
+      changed[v] = !same;
+    }
+  }
   std::vector<int> hop(n, -1), mark(n, 0);
   std::vector<char> anchor(n, 0);
   std::vector<int> touched, queue, anchors, finer;
@@ -276,21 +297,17 @@ void build_long_range(SolverArrays& s) {
   // many of the cloth's edges that is.
   std::vector<int> g_begin = s.nbr_begin, g_to = s.nbr, g_edges(s.nbr.size(), 1);
   std::vector<double> g_len = s.nbr_rest;
-  for (int S = 2; S <= 64; S *= 2) {
+  auto taken = std::make_shared<std::vector<std::vector<int>>>();
+  std::vector<char> in_sweep(n, 0);
+  for (int S = 2, level_index = 0; S <= 64; S *= 2, ++level_index) {
     const bool fine = S <= 4;
     // Anchors: no two closer than S edges; every vertex (every finer anchor) within S - 1 of one.
     std::fill(anchor.begin(), anchor.end(), 0);
     std::fill(mark.begin(), mark.end(), 0);
     finer.swap(anchors);
     anchors.clear();
-    for (int a : fine ? s.order : finer) {
-      if (mark[a]) continue;
-      const int first = a;
-      if (fine)
-        for (int k = s.nbr_begin[first]; k < s.nbr_begin[first + 1]; ++k) {
-          const int w = s.nbr[k];
-          if (!mark[w] && outline(w) == outline(first) && degree(w) > degree(a)) a = w;
-        }
+    const std::vector<int>& sweep = fine ? s.order : finer;
+    auto take = [&](int a) {
       anchor[a] = 1;
       anchors.push_back(a);
       queue.assign(1, a);
@@ -310,8 +327,33 @@ void build_long_range(SolverArrays& s) {
         }
       }
       for (int u : touched) hop[u] = -1;
+    };
+    // The last build's anchors first, in the order it took them (those an edit left S apart), so
+    // that an edit moves the anchors only around itself: a sweep from scratch finds others
+    // everywhere, and carried a change on through the rest of the sweep even in the same order (a
+    // cut moved a third of a level's anchors), and every limit from them. On the mesh they were
+    // taken on, they are taken all and in the same order: the arrays of the solver that took them.
+    if (was && static_cast<std::size_t>(level_index) < was->size()) {
+      for (int a : sweep) in_sweep[a] = 1;
+      for (int a : (*was)[level_index])
+        if (a >= 0 && static_cast<std::size_t>(a) < n && in_sweep[a] && !mark[a]) take(a);
+      for (int a : sweep) in_sweep[a] = 0;
     }
-    if (anchors.size() < 2) break;
+    for (int a : sweep) {
+      if (mark[a]) continue;
+      const int first = a;
+      if (fine)
+        for (int k = s.nbr_begin[first]; k < s.nbr_begin[first + 1]; ++k) {
+          const int w = s.nbr[k];
+          if (!mark[w] && outline(w) == outline(first) && degree(w) > degree(a)) a = w;
+        }
+      take(a);
+    }
+    taken->push_back(anchors);
+    if (anchors.size() < 2) {
+      for (int L = S == 2 ? 0 : 1; L < 2 && fine; ++L) s.searched[L] = {};
+      break;
+    }
     if (!fine) {  // the finer level's limits, both ways
       const std::vector<std::size_t>& level = levels.back();
       g_begin.assign(n + 1, 0);
@@ -332,6 +374,28 @@ void build_long_range(SolverArrays& s) {
           g_edges[f] = lh[k];
         }
     }
+    // Fine levels: which anchors' searches must run again (all, without `reuse`).
+    std::vector<char> again(n, 1);
+    SolverArrays::LimitSearch* kept = fine ? &s.searched[S == 2 ? 0 : 1] : nullptr;
+    if (fine && reuse && kept->anchor.size() <= n) {
+      std::vector<int> depth(n, -1);
+      queue.clear();
+      for (std::size_t v = 0; v < n; ++v)
+        if (changed[v] || anchor[v] != (v < kept->anchor.size() ? kept->anchor[v] : 0)) {
+          depth[v] = 0;
+          queue.push_back(static_cast<int>(v));
+        }
+      for (std::size_t q = 0; q < queue.size(); ++q) {
+        const int u = queue[q];
+        if (depth[u] >= 2 * S) continue;
+        for (int k = s.nbr_begin[u]; k < s.nbr_begin[u + 1]; ++k)
+          if (depth[s.nbr[k]] < 0) {
+            depth[s.nbr[k]] = depth[u] + 1;
+            queue.push_back(s.nbr[k]);
+          }
+      }
+      for (std::size_t v = 0; v < n; ++v) again[v] = depth[v] >= 0;
+    }
     std::size_t before = li.size();
     // Join anchors: Dijkstra on rest lengths, no further than 2 S edges. The anchors in contiguous
     // pieces, in parallel, each piece with its own scratch and its own list, joined in anchor order
@@ -341,6 +405,7 @@ void build_long_range(SolverArrays& s) {
     std::vector<std::vector<std::array<int, 2>>> piece_li(pieces);
     std::vector<std::vector<double>> piece_lr(pieces);
     std::vector<std::vector<int>> piece_lh(pieces);
+    std::vector<int> piece_searches(pieces, 0);
     parallel::for_range(pieces, 1, [&](int p0, int p1) {
       std::vector<double> dist(n, std::numeric_limits<double>::infinity());
       std::vector<int> hops(n, -1), reached;
@@ -349,6 +414,15 @@ void build_long_range(SolverArrays& s) {
         const int a0 = parallel::piece_begin(na, piece, pieces), a1 = parallel::piece_begin(na, piece + 1, pieces);
         for (int q = a0; q < a1; ++q) {
           const int a = anchors[q];
+          if (!again[a]) {
+            for (int k = kept->first[a]; k < kept->first[a] + kept->count[a]; ++k) {
+              piece_li[piece].push_back({a, kept->to[k]});
+              piece_lr[piece].push_back(kept->rest[k]);
+              piece_lh[piece].push_back(kept->edges[k]);
+            }
+            continue;
+          }
+          ++piece_searches[piece];
           reached.assign(1, a);
           dist[a] = 0;
           hops[a] = 0;
@@ -389,7 +463,23 @@ void build_long_range(SolverArrays& s) {
     std::vector<std::size_t> idx;
     for (std::size_t k = before; k < li.size(); ++k) idx.push_back(k);
     levels.push_back(idx);
+    if (fine) {  // kept for the next rebuild: each anchor's limits are consecutive
+      for (int c : piece_searches) s.searches += c;
+      SolverArrays::LimitSearch found;
+      found.anchor = anchor;
+      found.first.assign(n, 0);
+      found.count.assign(n, 0);
+      for (std::size_t k = before; k < li.size(); ++k) {
+        const int a = li[k][0];
+        if (found.count[a]++ == 0) found.first[a] = static_cast<int>(k - before);
+        found.to.push_back(li[k][1]);
+        found.rest.push_back(lr[k]);
+        found.edges.push_back(lh[k]);
+      }
+      *kept = std::move(found);
+    }
   }
+  s.anchors = std::move(taken);
   // Coarse to fine, each level scheduled on its own (its blocks, then the limits across blocks).
   s.l_ranges.assign(1, 0);
   s.l_kinds.clear();
@@ -522,6 +612,8 @@ double heron(double a, double b, double c) {
 void rebuild(SolverArrays& s, const Garment& g) {
   const Mesh& m = g.mesh();
   const std::size_t n = g.vertex_capacity();
+  const bool had_searches = s.built;  // the last build's searches are whole
+  s.built = false;
   s.garment = &g;
   s.topology = g.topology_version();
   s.n = n;
@@ -540,6 +632,8 @@ void rebuild(SolverArrays& s, const Garment& g) {
   // built its own, and take up its state, so that this one steps on as that one would have.
   s.mesh_key = mesh_key(g);
   s.carried = g.step_record();
+  // Its long-range anchors, even where the record is of the mesh before an edit (build_long_range).
+  const std::shared_ptr<const std::vector<std::vector<int>>> before_anchors = s.carried ? s.carried->anchors : nullptr;
   if (s.carried && (s.carried->mesh != s.mesh_key || !s.carried->built_at || s.carried->built_at->size() != n ||
                     s.carried->surprise.size() != n || s.carried->surprise_self.size() != n || s.carried->held_up.size() != n))
     s.carried.reset();
@@ -646,6 +740,11 @@ void rebuild(SolverArrays& s, const Garment& g) {
     }
     if (k == 3) s.tris.push_back(t);
   }
+  if (had_searches) {
+    s.searched_nbr_begin.swap(s.nbr_begin);
+    s.searched_nbr.swap(s.nbr);
+    s.searched_nbr_rest.swap(s.nbr_rest);
+  }
   s.nbr_begin.assign(n + 1, 0);
   for (std::size_t k = 0; k < ei.size(); ++k) {
     ++s.nbr_begin[ei[k] + 1];
@@ -666,7 +765,7 @@ void rebuild(SolverArrays& s, const Garment& g) {
       for (int u : {ei[k], ej[k]}) s.spacing[u] = s.spacing[u] > 0 ? std::min(s.spacing[u], r) : r;
     }
   }
-  build_long_range(s);
+  build_long_range(s, had_searches, before_anchors.get());
 
   // Self-collision trees: a leaf per cluster of nearby triangles and of nearby vertices (runs in
   // Morton order), built once, refitted at each gather.

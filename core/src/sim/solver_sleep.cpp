@@ -300,11 +300,15 @@ void write_step_record(SolverArrays& s, Garment& g) {
   // The record written last, where only this solver and the garment hold it (no copy of the
   // garment kept it), is written over: a step of a small region of a large garment would
   // otherwise spend a good part of its time making a new one.
-  const bool reuse = s.written && s.written.use_count() == 2 && g.step_record() == s.written;
+  // Not one of the mesh before an edit, which the garment keeps until this write (its blocks are
+  // not this build's).
+  const bool reuse = s.written && s.written.use_count() == 2 && g.step_record() == s.written &&
+                     s.written->mesh == s.mesh_key;
   if (!reuse) s.written = std::make_shared<StepRecord>();
   StepRecord* r = s.written.get();
   r->mesh = s.mesh_key;
   r->built_at = s.built_at;
+  r->anchors = s.anchors;
   r->surprise = s.surprise;
   r->surprise_self = s.surprise_self;
   r->held_up = s.held_up;

@@ -36,6 +36,9 @@ struct StepRecord {
   // Where the vertices lay when the arrays were built: their order, and from it the blocks, the
   // constraints' order, the long-range limits and the collision clusters. Shared until a rebuild.
   std::shared_ptr<const std::vector<Vec3>> built_at;
+  // The long-range anchors, level by level (S = 2, 4 ... 64), in the order the solver took them: a
+  // rebuild after an edit keeps them where it can. Shared until a rebuild.
+  std::shared_ptr<const std::vector<std::vector<int>>> anchors;
   std::vector<double> surprise, surprise_self;  // per vertex, as SolverArrays
   std::vector<unsigned char> held_up;
   // Sleeping as the last step left it (ready: the solver had its blocks; see solver_sleep.cpp):
@@ -49,7 +52,7 @@ struct StepRecord {
   std::vector<Vec3> anchor;
 };
 
-// Memory a record holds (the journal's history budget counts it), its shared positions apart.
+// Memory a record holds (the journal's history budget counts it), its shared positions and anchors apart.
 inline std::size_t bytes_of(const SleepRecord& r) {
   return sizeof(r) + r.at.size() * sizeof(Vec3) + r.key.size() * sizeof(std::uint64_t);
 }
@@ -67,6 +70,7 @@ struct SolverArrays {
   bool built = false;
   std::uint64_t mesh_key = 0;                         // solver_detail::mesh_key at the last rebuild
   std::shared_ptr<const std::vector<Vec3>> built_at;  // where the vertices lay for it (StepRecord)
+  std::shared_ptr<const std::vector<std::vector<int>>> anchors;  // its long-range anchors (StepRecord)
   std::shared_ptr<const StepRecord> carried;          // the record it took up, until its sleep is too
   std::shared_ptr<StepRecord> written;                // the record it gave the garment last
 
@@ -110,6 +114,19 @@ struct SolverArrays {
   std::vector<double> l_rest;
   std::vector<int> l_ranges;               // level by level, coarse to fine
   std::vector<unsigned char> l_kinds;
+  // What the last rebuild's two fine levels (S = 2, 4) found, and the cloth they searched: a search
+  // from an anchor reads only the cloth within 2 S edges of it, so the next rebuild searches again
+  // only from the anchors near what an edit changed (build_long_range), and finds the same limits.
+  struct LimitSearch {
+    std::vector<char> anchor;        // per vertex: an anchor of the level
+    std::vector<int> first, count;   // per vertex: its search's limits in to / rest / edges
+    std::vector<int> to, edges;
+    std::vector<double> rest;
+  };
+  std::array<LimitSearch, 2> searched;
+  std::vector<int> searched_nbr_begin, searched_nbr;  // the adjacency those searches read
+  std::vector<double> searched_nbr_rest;
+  int searches = 0;  // searches the last rebuild ran at the fine levels (the rest were kept)
 
   // ---- bending: isometric (quadratic) bending per interior edge ----
   struct Bend {

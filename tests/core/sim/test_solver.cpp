@@ -1,5 +1,6 @@
 // The default model (XPBD, small steps): settling, strain, body contact, no tunnelling,
 // self-collision, input checking.
+#include "kiji/codec.h"
 #include "kiji/error.h"
 #include "kiji/pattern.h"
 #include "kiji/solver.h"
@@ -13,6 +14,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <memory>
 #include <queue>
 #include <random>
 
@@ -135,6 +137,98 @@ TEST(Xpbd, NoLongRangeLimitIsShorterThanTheClothBetweenItsEnds) {
   EXPECT_LT(longest_ratio, 1.05) << "a limit this much longer than the cloth between its ends";
   EXPECT_GT(longest_rest, 0.5) << "the coarse levels reach across the cloth";
   EXPECT_GT(around, 10) << "limits that go round the slit";
+}
+
+namespace {
+// Everything a rebuild makes that the solve or its collision reads, compared exactly.
+void expect_same_arrays(const SolverArrays& a, const SolverArrays& b) {
+  EXPECT_EQ(*a.built_at, *b.built_at);
+  EXPECT_EQ(a.order, b.order);
+  EXPECT_EQ(a.block, b.block);
+  EXPECT_EQ(a.e_i, b.e_i);
+  EXPECT_EQ(a.e_j, b.e_j);
+  EXPECT_EQ(a.e_ranges, b.e_ranges);
+  EXPECT_EQ(a.l_i, b.l_i);
+  EXPECT_EQ(a.l_j, b.l_j);
+  EXPECT_EQ(a.l_rest, b.l_rest);
+  EXPECT_EQ(a.l_ranges, b.l_ranges);
+  EXPECT_EQ(a.l_kinds, b.l_kinds);
+  EXPECT_EQ(a.b_ranges, b.b_ranges);
+  EXPECT_EQ(a.tcl_items, b.tcl_items);
+  EXPECT_EQ(a.vcl_items, b.vcl_items);
+  EXPECT_EQ(a.excl_cluster, b.excl_cluster);
+}
+}  // namespace
+
+TEST(Xpbd, ARebuildAfterACutSearchesNearItAndAgreesWithOneFromScratch) {
+  // After an edit the solver searches for its long-range limits again only near it; a peer that
+  // joins then (or a session opened from a file saved then) builds everything from the garment's
+  // bytes, and the two must agree bit for bit, or their garments part. The cloth moves between the
+  // builds, as it does in a session, and the vertices' order with it: the vertices an edit kept keep
+  // the anchors they had, so the limits change only around the cut.
+  const int n = 101;  // 10,201 vertices
+  Garment g = make_rectangle(1.0, 1.0, n, n, Material{});
+  SolverArrays host;
+  solver_detail::rebuild(host, g);
+  const int all_searches = host.searches;
+  const std::size_t first_limits = host.l_i.size();
+  ASSERT_GT(all_searches, 3000);
+  solver_detail::write_step_record(host, g);  // as a step leaves it
+  auto move = [&] {
+    for (Vertex v : g.mesh().vertices()) {
+      const Vec3 p = g.position(v);
+      g.set_position(v, Vec3(p.z() + 0.2 * std::sin(3 * p.x()), p.y() + 0.1, -p.x()));
+    }
+  };
+  struct Joined {
+    Garment garment;
+    SolverArrays s;
+  };
+  auto from_bytes = [](const Garment& garment) {
+    auto j = std::make_unique<Joined>();
+    j->garment = decode_garment(encode_garment(garment));
+    solver_detail::rebuild(j->s, j->garment);
+    return j;
+  };
+  move();
+  std::vector<Vertex> slit;
+  for (int row = 40; row <= 60; ++row) slit.push_back(Vertex(row * n + 30));
+  cut_along(g, slit);
+  ASSERT_TRUE(g.is_valid());
+  const auto saved_before_a_step = from_bytes(g);  // the record is of the mesh before the cut
+  solver_detail::rebuild(host, g);
+  EXPECT_LT(host.searches, all_searches / 10) << "searched again far from the cut";
+  EXPECT_GT(host.searches, 0);
+  expect_same_arrays(host, saved_before_a_step->s);
+  solver_detail::write_step_record(host, g);
+  const auto joiner = from_bytes(g);
+  EXPECT_GT(joiner->s.searches, all_searches * 9 / 10) << "a build from bytes searches from every anchor";
+  expect_same_arrays(host, joiner->s);
+
+  // A second edit elsewhere, after a step's record of the first.
+  move();
+  slit.clear();
+  for (int col = 60; col <= 85; ++col) slit.push_back(Vertex(20 * n + col));
+  cut_along(g, slit);
+  solver_detail::rebuild(host, g);
+  EXPECT_LT(host.searches, all_searches / 10);
+  expect_same_arrays(host, from_bytes(g)->s);
+  // A seam joining the cloth's left and right borders brings cloth that was a metre apart within an
+  // edge: anchors kept from before are now too close, and give way to one another.
+  solver_detail::write_step_record(host, g);
+  std::vector<Vertex> left, right;
+  for (int row = 70; row <= 90; ++row) {
+    left.push_back(Vertex(row * n));
+    right.push_back(Vertex(row * n + n - 1));
+  }
+  stitch(g, left, right);
+  ASSERT_TRUE(g.is_valid());
+  solver_detail::rebuild(host, g);
+  EXPECT_LT(host.searches, all_searches / 5);
+  expect_same_arrays(host, from_bytes(g)->s);
+
+  // Anchors kept through the edits do not pile up: as many limits as the uncut cloth had.
+  EXPECT_NEAR(double(host.l_i.size()), double(first_limits), 0.02 * first_limits);
 }
 
 TEST(Xpbd, BendingStiffnessUnbendsACurledStrip) {

@@ -316,10 +316,12 @@ void resolve_body_against(SolverArrays& s, int i, double thickness, double frict
 // A point of the body thinner than the cloth's spacing (a low-poly fingertip, the tip of a horn)
 // would pass between the cloth's vertices, which alone are kept out of the body, and hold the cloth
 // from inside: the body's sharp points are kept on the side of the cloth's triangles they started
-// on, to the thickness. find_body_points on a new body; the pairs gathered each step.
+// on, to the thickness, with the body's friction (a cloth resting on a point is held as on the
+// body's faces; without it, cloth resting on a figure's highest points slid off them).
+// find_body_points on a new body; the pairs gathered each step.
 void find_body_points(SolverArrays& s, const Body& body);
 void gather_point_pairs(SolverArrays& s, double thickness);
-void resolve_point_pairs(SolverArrays& s, double thickness);
+void resolve_point_pairs(SolverArrays& s, double thickness, double friction);
 // The body's distance field for this thickness (BodyField::of), when the body is new or the field
 // does not reach as far as the thickness needs.
 void prepare_body_field(SolverArrays& s, double thickness);

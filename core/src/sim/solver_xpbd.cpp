@@ -581,7 +581,7 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
     }
     // The body's points before the strain limit: a cloth hanging on a point is lifted by it, and
     // the limit then takes back what the lift stretched.
-    if (!s.point_pairs.empty()) resolve_point_pairs(s, th);
+    if (!s.point_pairs.empty()) resolve_point_pairs(s, th, m.friction);
     if (p.strain_limit > 0) {
       PhaseClock clock(s.report.ms.strain_limit);
       limit_strain(s, cs, p.strain_limit);

@@ -180,7 +180,7 @@ void gather_point_pairs(SolverArrays& s, double thickness) {
   }
 }
 
-void resolve_point_pairs(SolverArrays& s, double thickness) {
+void resolve_point_pairs(SolverArrays& s, double thickness, double mu) {
   for (const SolverArrays::PointPair& pp : s.point_pairs) {
     const auto& f = s.tris[pp.t];
     const Vec3& p = s.body_points[pp.point];
@@ -213,10 +213,22 @@ void resolve_point_pairs(SolverArrays& s, double thickness) {
     const double denom = cp.b0 * cp.b0 * w0 + cp.b1 * cp.b1 * w1 + cp.b2 * cp.b2 * w2;
     if (!(denom > 0)) continue;
     // At most half the thickness a substep, as for the cloth's own pairs (resolve_pair).
-    const double lambda = std::min(depth, 0.5 * thickness) / denom;
+    const double push = std::min(depth, 0.5 * thickness);
+    const double lambda = push / denom;
     A += (w0 * cp.b0 * lambda) * dir;
     B += (w1 * cp.b1 * lambda) * dir;
     C += (w2 * cp.b2 * lambda) * dir;
+    if (!(mu > 0)) continue;
+    // Coulomb friction on the substep's motion of the triangle's point of contact along the
+    // point's surface, as the body's triangles give a vertex (resolve_body_against).
+    const Vec3 moved = cp.b0 * (A - s.xp[f[0]]) + cp.b1 * (B - s.xp[f[1]]) + cp.b2 * (C - s.xp[f[2]]);
+    const Vec3 tan = moved - dir * moved.dot(dir);
+    const double lt = tan.norm();
+    if (!(lt > 0)) continue;
+    const Vec3 back = (lt <= mu * push) ? Vec3(-tan) : Vec3(tan * (-mu * push / lt));
+    A += (w0 * cp.b0 / denom) * back;
+    B += (w1 * cp.b1 / denom) * back;
+    C += (w2 * cp.b2 / denom) * back;
   }
 }
 

@@ -38,9 +38,10 @@ class BodyCollider {
   BodyContact first_crossing(const Vec3& a, const Vec3& b) const;
   // Whether p is inside the body's volume: the body's faces crossed by three rays from p, each
   // counted +1 where the ray leaves through it and -1 where it enters, sum to 1 or more (2 where
-  // two parts overlap) on at least two of them. Unlike the side of the closest face, it holds on a game model's sheets of no
-  // thickness (a fin counts +1 and -1), its faces turned inwards or buried in the volume, and
-  // beside a small hole.
+  // two parts overlap) on all three, or on none; where the rays disagree (an open surface), the
+  // winding number of the whole surface around p is over a half. Unlike the side of the closest
+  // face, it holds on a game model's sheets of no thickness (a fin counts +1 and -1), its faces
+  // turned inwards or buried in the volume, and beside a hole.
   bool inside(const Vec3& p) const;
 
  private:

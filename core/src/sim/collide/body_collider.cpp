@@ -140,7 +140,17 @@ bool BodyCollider::inside(const Vec3& p) const {
     }
     votes += crossings > 0;
   }
-  return votes >= 2;
+  if (votes == 0 || votes == 3) return votes == 3;
+  // The rays disagree where the surface is open (a hole, a sheet with one side, parts that meet
+  // along edges shared by three faces): there the volume's own measure decides, the winding number
+  // of the whole surface around p (Jacobson et al. 2013), 1 inside and 0 outside, a half by a hole.
+  double w = 0;
+  for (const auto& t : T) {
+    const Vec3 a = V[t[0]] - p, b = V[t[1]] - p, c = V[t[2]] - p;
+    const double la = a.norm(), lb = b.norm(), lc = c.norm();
+    w += 2 * std::atan2(a.dot(b.cross(c)), la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb);
+  }
+  return w / (4 * M_PI) > 0.5;
 }
 
 BodyContact BodyCollider::first_crossing(const Vec3& a, const Vec3& b) const {

@@ -199,3 +199,34 @@ TEST(Collision, InsideAgreesWithTheWindingNumberNearAGameCharacter) {
   EXPECT_EQ(wrong, 0) << "of " << tested << " points";
   EXPECT_GT(face_wrong, 10) << "the faults this test is for: the closest face's side is wrong there";
 }
+
+// The cloth's vertices that `kiji drape --body faerie.md2 --height 1.7` left by the wing's root (a
+// surface with 192 border edges and 40 edges of three faces), where two of the three rays crossed
+// the wing from behind and counted the point inside: the winding number there is about 0.05.
+TEST(Collision, InsideHoldsWhereTheRaysDisagreeOnAnOpenSurface) {
+  BodyImportOptions o;
+  o.height = 1.7;
+  o.find_front = true;
+  o.smooth = true;
+  const Body body = Body::load(KIJI_TEST_MODELS "/MD2/faerie.md2", o);
+  BodyCollider c(body);
+  for (const Vec3& p : {Vec3(0.1549, 1.4924, 0.0512), Vec3(0.1309, 1.4520, 0.0763), Vec3(0.1347, 1.4507, 0.0758)}) {
+    const double w = winding_number(body, p);
+    ASSERT_LT(w, 0.1) << "outside by the winding number: " << p.transpose();
+    EXPECT_FALSE(c.inside(p)) << p.transpose();
+  }
+  // And inside and outside agree with the winding number near the whole figure.
+  const auto& V = body.vertices();
+  int tested = 0, wrong = 0, inside = 0;
+  for (std::size_t k = 0; k < 2000; ++k) {
+    const Vec3 p = V[k * 7919 % V.size()] + 0.02 * Vec3(std::sin(k * 1.3), std::cos(k * 2.1), std::sin(k * 0.7 + 1));
+    const double w = winding_number(body, p);
+    if (std::abs(w - std::round(w)) > 0.1) continue;  // by a hole: neither in nor out
+    ++tested;
+    inside += w > 0.5;
+    wrong += c.inside(p) != (w > 0.5);
+  }
+  EXPECT_GT(tested, 1500);
+  EXPECT_GT(inside, 300);
+  EXPECT_EQ(wrong, 0) << "of " << tested << " points";
+}

@@ -197,6 +197,7 @@ struct SolverArrays {
     double side;  // +1 / -1: the side of the triangle the point was on when the pair was gathered
   };
   std::vector<PointPair> point_pairs;
+  std::vector<int> point_held;  // this substep: the vertices of triangles a point pushed up
   std::vector<unsigned char> escaped;  // per vertex: moved further than a field cell in the substep
   std::vector<int> escapees;           // those vertices, in index order
 
@@ -257,7 +258,8 @@ struct SolverArrays {
   // to the last substep, and up to now (path + this substep's motion + the self-collision pushes).
   std::vector<double> path, reach;
   // Per vertex: the body held it up (pushed it out against gravity, or it lies within a small
-  // margin of the thickness above an upward surface) in the last substep; reset by
+  // margin of the thickness above an upward surface, or a body's point pushed one of its
+  // triangles up) in the last substep; reset by
   // rebuild, and each step for a vertex with no body triangle near. `up` is against gravity (zero
   // without it). A long-range limit from a held vertex to cloth hanging below moves only the
   // hanging end while no hand holds the garment (step_xpbd).
@@ -316,8 +318,9 @@ void resolve_body_against(SolverArrays& s, int i, double thickness, double frict
 // A point of the body thinner than the cloth's spacing (a low-poly fingertip, the tip of a horn)
 // would pass between the cloth's vertices, which alone are kept out of the body, and hold the cloth
 // from inside: the body's sharp points are kept on the side of the cloth's triangles they started
-// on, to the thickness, with the body's friction (a cloth resting on a point is held as on the
-// body's faces; without it, cloth resting on a figure's highest points slid off them).
+// on, to the thickness, with the body's friction, and a triangle a point pushes up is held up
+// (SolverArrays::held_up) as a vertex the faces push up is: a cloth resting on a point is held as
+// on the body's faces (without friction, cloth on a figure's highest points slid off them).
 // find_body_points on a new body; the pairs gathered each step.
 void find_body_points(SolverArrays& s, const Body& body);
 void gather_point_pairs(SolverArrays& s, double thickness);

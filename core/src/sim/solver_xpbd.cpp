@@ -592,6 +592,8 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
     {
       PhaseClock clock(s.report.ms.body);
       if (body && !s.body_tris.empty()) resolve_body(s, *body, s.act, th, m.friction, p.floor);
+      if (!s.point_pairs.empty())
+        for (int i : s.point_held) s.held_up[i] = 1;
     }
     const double inv_h = 1.0 / h;
     parallel::for_range(na, kVertexGrain, [&](int b, int e) {

@@ -181,6 +181,7 @@ void gather_point_pairs(SolverArrays& s, double thickness) {
 }
 
 void resolve_point_pairs(SolverArrays& s, double thickness, double mu) {
+  s.point_held.clear();
   for (const SolverArrays::PointPair& pp : s.point_pairs) {
     const auto& f = s.tris[pp.t];
     const Vec3& p = s.body_points[pp.point];
@@ -218,6 +219,7 @@ void resolve_point_pairs(SolverArrays& s, double thickness, double mu) {
     A += (w0 * cp.b0 * lambda) * dir;
     B += (w1 * cp.b1 * lambda) * dir;
     C += (w2 * cp.b2 * lambda) * dir;
+    if (dir.dot(s.up) > 0) s.point_held.insert(s.point_held.end(), {f[0], f[1], f[2]});
     if (!(mu > 0)) continue;
     // Coulomb friction on the substep's motion of the triangle's point of contact along the
     // point's surface, as the body's triangles give a vertex (resolve_body_against).

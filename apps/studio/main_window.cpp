@@ -500,11 +500,18 @@ void MainWindow::open_body_dialog() {
   auto* up = new QComboBox(&d);
   up->addItem("from the file");
   for (const char* a : {"+y", "-y", "+z", "-z", "+x", "-x"}) up->addItem(a);
+  auto* front = new QComboBox(&d);
+  front->addItem("from the file, else the feet");
+  for (const char* a : {"+z", "-z", "+x", "-x", "+y", "-y"}) front->addItem(a);
+  auto* smooth = new QCheckBox("round a low-poly body (Loop subdivision to 1 cm triangles)", &d);
+  smooth->setChecked(true);
   auto* scale = number(&d, 1.0, 1e-6, 1e6, 6, " m a unit");
   auto* use_scale = new QCheckBox("override the file's", &d);
   auto* height = number(&d, 1.7, 0.01, 100, 3, " m");
   auto* use_height = new QCheckBox("scale to this height", &d);
   form->addRow("Up axis", up);
+  form->addRow("Faces", front);
+  form->addRow("", smooth);
   form->addRow("Scale", scale);
   form->addRow("", use_scale);
   form->addRow("Height", height);
@@ -514,8 +521,11 @@ void MainWindow::open_body_dialog() {
   connect(buttons, &QDialogButtonBox::accepted, &d, &QDialog::accept);
   connect(buttons, &QDialogButtonBox::rejected, &d, &QDialog::reject);
   if (d.exec() != QDialog::Accepted) return;
-  BodyImportOptions o;
+  BodyImportOptions o;  // as --body and `kiji drape` read one
+  o.find_front = true;
   if (up->currentIndex() > 0) o.up = parse_axis(up->currentText().toStdString());
+  if (front->currentIndex() > 0) o.front = parse_axis(front->currentText().toStdString());
+  o.smooth = smooth->isChecked();
   if (use_scale->isChecked()) o.scale = scale->value();
   if (use_height->isChecked()) o.height = height->value();
   QApplication::setOverrideCursor(Qt::WaitCursor);

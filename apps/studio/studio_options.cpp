@@ -37,6 +37,9 @@ std::string StudioOptions::usage() {
          "The scene:\n"
          "  --body FILE             a body to drape on (any file assimp reads: .zae .dae .obj .fbx .glb ...)\n"
          "  --up AXIS               the body file's up axis (+y, -z, ...), when its metadata is wrong or missing\n"
+         "  --front AXIS            the body file's axis the body faces (default: what the file says, else the\n"
+         "                          way its feet point); the body is turned to face the camera\n"
+         "  --no-smooth             keep a low-poly body's facets (by default it is rounded, as kiji drape does)\n"
          "  --scale M               metres per unit of the body file\n"
          "  --height M              scale the body to this height\n"
          "  --garment rect:W,H,S    a W x H m rectangle with vertices S m apart (repeat for more garments)\n"
@@ -115,6 +118,8 @@ StudioOptions StudioOptions::parse(const std::vector<std::string>& args) {
       else if (name == "--version") flag(), o.version = true;
       else if (name == "--body") o.body = take();
       else if (name == "--up") o.body_options.up = parse_axis(take());
+      else if (name == "--front") o.body_options.front = parse_axis(take());
+      else if (name == "--no-smooth") flag(), o.body_options.smooth = false;
       else if (name == "--scale") {
         const double s = number(name, take());
         if (s <= 0) throw UsageError("option --scale must be a positive number of metres a unit");
@@ -202,8 +207,9 @@ StudioOptions StudioOptions::parse(const std::vector<std::string>& args) {
   }
   if (material)
     for (GarmentSpec& g : o.garments) g.material = *material;
-  if ((o.body_options.up || o.body_options.scale || o.body_options.height) && !o.body)
-    throw UsageError("options --up, --scale and --height describe a body: give it with --body FILE");
+  if ((o.body_options.up || o.body_options.front || o.body_options.scale || o.body_options.height ||
+       !o.body_options.smooth) && !o.body)
+    throw UsageError("options --up, --front, --scale, --height and --no-smooth describe a body: give it with --body FILE");
   if (o.host && o.join) throw UsageError("options --host and --join exclude each other: host a session or join one");
   if (o.join && !o.key_file) throw UsageError("option --join needs the session's key: --key-file FILE (the host has it)");
   if (!o.host && !o.join && (o.url || o.channel || o.name || o.key_file || o.seconds > 0 || o.save_peers))

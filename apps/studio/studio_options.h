@@ -19,7 +19,14 @@ class UsageError : public std::runtime_error {
 
 struct StudioOptions {
   std::optional<std::string> body;
-  BodyImportOptions body_options;
+  // As `kiji drape` and Python's Body.load read a body: turned to face the camera, a low-poly one
+  // rounded (--front, --no-smooth change that), so that a figure drapes alike in each.
+  BodyImportOptions body_options = [] {
+    BodyImportOptions b;
+    b.find_front = true;
+    b.smooth = true;
+    return b;
+  }();
   std::vector<GarmentSpec> garments;
   std::string device = "mouse";  // mouse | phantom | none
   std::string hd_library, hd_device;

@@ -248,6 +248,13 @@ class StudioTest : public QObject {
     QVERIFY(message({"--garment", "rect:1,x,0.1"}).startsWith("option --garment: "));
     QVERIFY(message({"--up", "sideways"}).contains("option --up"));
     QVERIFY(message({"--up", "z"}).contains("give it with --body"));
+    QVERIFY(message({"--no-smooth"}).contains("give it with --body"));
+    QVERIFY(message({"--body", "b.obj", "--front", "ahead"}).contains("option --front"));
+    // A body is read as `kiji drape` reads it: turned to face the camera, a low-poly one rounded.
+    const StudioOptions b = StudioOptions::parse({"--body", "b.obj"});
+    QVERIFY(b.body_options.find_front && b.body_options.smooth && !b.body_options.front);
+    const StudioOptions c = StudioOptions::parse({"--body", "b.obj", "--front", "-x", "--no-smooth"});
+    QVERIFY(c.body_options.front == Axis::NegX && !c.body_options.smooth);
     QVERIFY(message({"--device", "tablet"}).contains("'mouse', 'phantom' or 'none'"));
     QVERIFY(message({"--quit-after", "-1"}).contains("--quit-after"));
     QVERIFY(message({"--quit-after"}).contains("needs a value"));

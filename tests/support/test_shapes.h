@@ -79,4 +79,24 @@ inline Body make_slope(double degrees) {
   return Body::from_triangles(std::move(v), std::move(f), "slope");
 }
 
+// An axis-aligned box from `lo` to `hi`, wound outwards (a thin one is a wall with a sharp top).
+inline Body make_box(const Vec3& lo, const Vec3& hi) {
+  std::vector<Vec3> v;
+  for (double x : {lo.x(), hi.x()})
+    for (double y : {lo.y(), hi.y()})
+      for (double z : {lo.z(), hi.z()}) v.emplace_back(x, y, z);
+  std::vector<std::array<int, 3>> f;
+  for (const std::array<int, 4>& q : {std::array<int, 4>{0, 1, 3, 2}, {4, 6, 7, 5}, {0, 4, 5, 1}, {2, 3, 7, 6},
+                                      {0, 2, 6, 4}, {1, 5, 7, 3}}) {
+    f.push_back({q[0], q[1], q[2]});
+    f.push_back({q[0], q[2], q[3]});
+  }
+  const Vec3 middle = 0.5 * (lo + hi);
+  for (auto& tri : f) {
+    const Vec3 n = (v[tri[1]] - v[tri[0]]).cross(v[tri[2]] - v[tri[0]]);
+    if (n.dot(v[tri[0]] + v[tri[1]] + v[tri[2]] - 3 * middle) < 0) std::swap(tri[1], tri[2]);
+  }
+  return Body::from_triangles(std::move(v), std::move(f), "box");
+}
+
 }  // namespace kiji::test

@@ -199,6 +199,8 @@ struct SolverArrays {
   std::vector<PointPair> point_pairs;
   std::vector<int> point_held;  // this substep: the vertices of triangles a point pushed up
   std::vector<unsigned char> escaped;  // per vertex: moved further than a field cell in the substep
+  std::vector<float> body_gap;  // per vertex: at least how far from the body it was (0: not known)
+  std::vector<float> body_turn;  // per vertex: BodyField::turn of its cell (1 far from the body, -1 not known)
   std::vector<int> escapees;           // those vertices, in index order
 
   // ---- self collision: two btDbvt trees, refitted at each gather, whose leaves are clusters of
@@ -335,6 +337,14 @@ void prepare_body_field(SolverArrays& s, double thickness);
 // through the body's lowest point (SolverParams::floor).
 void resolve_body(SolverArrays& s, const BodyCollider& collider, const std::vector<int>& verts, double thickness,
                   double friction, bool floor);
+// The points of the edges [b, e) of (ei, ej) between their ends against the body, after
+// resolve_body (which prepares the field): kept `clearance` out of it on the side they came from, with friction,
+// each end moved by its share. Vertices alone let an edge pass through a part of the body thinner
+// than the edge is long (an ear, a finger, the head under a stretched edge) and hold it there.
+// Points at most two field cells apart, kEdgePoints at most.
+constexpr int kEdgePoints = 32;
+void resolve_body_edges(SolverArrays& s, const BodyCollider& collider, const int* ei, const int* ej, int b, int e,
+                        double thickness, double clearance, double friction);
 // Vertex-triangle pairs that can come within the thickness while the vertices move by `win` (from
 // x), with the last step's surprise_self times surprise_scale as slack.
 void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale);

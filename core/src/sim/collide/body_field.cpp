@@ -152,6 +152,7 @@ const BodyField::Block* BodyField::fill(int slot) const {
   const int nt = near_begin_[slot + 1] - near_begin_[slot];
   auto block = std::make_unique<Block>();
   block->begin[0] = 0;
+  std::vector<Vec3> normals, centres;
   for (int c = 0; c < kCells; ++c) {
     const int cx = c % kBlock, cy = (c / kBlock) % kBlock, cz = c / (kBlock * kBlock);
     const Vec3 centre = origin_ + cell_ * Vec3(bx * kBlock + cx + 0.5, by * kBlock + cy + 0.5, bz * kBlock + cz + 0.5);
@@ -168,6 +169,31 @@ const BodyField::Block* BodyField::fill(int slot) const {
       const auto& f = T[list[q]];
       best = std::min(best, (centre - geom::closest_on_triangle(centre, V[f[0]], V[f[1]], V[f[2]]).point).norm());
     }
+    // The turn over the triangles within half a cell beyond the band: the block's list holds every
+    // triangle within the band of the block, and a cell's centre is half a cell inside it.
+    const double turn_radius = band_ + 0.5 * cell_;
+    normals.clear();
+    centres.clear();
+    for (int q = 0; q < nt; ++q) {
+      const Box3& tb = boxes_[tris[q]];
+      if ((centre - centre.cwiseMax(tb.min()).cwiseMin(tb.max())).squaredNorm() > turn_radius * turn_radius) continue;
+      const auto& f = T[tris[q]];
+      if ((centre - geom::closest_on_triangle(centre, V[f[0]], V[f[1]], V[f[2]]).point).norm() > turn_radius) continue;
+      const Vec3 n = (V[f[1]] - V[f[0]]).cross(V[f[2]] - V[f[0]]);
+      if (!(n.squaredNorm() > 0)) continue;
+      normals.push_back(n.normalized());
+      centres.push_back((V[f[0]] + V[f[1]] + V[f[2]]) / 3);
+    }
+    // Over convex turns only: a straight edge over a hollow (the neck into the shoulders) stays out
+    // of it.
+    double turn = 1;
+    for (std::size_t a = 0; a < normals.size(); ++a)
+      for (std::size_t b = a + 1; b < normals.size(); ++b) {
+        const Vec3 ab = centres[b] - centres[a];
+        if (ab.dot(normals[a]) > 0 && ab.dot(normals[b]) < 0) continue;  // each in front of the other
+        turn = std::min(turn, normals[a].dot(normals[b]));
+      }
+    block->turn[c] = static_cast<float>(turn);
     if (!(best <= band_)) list.resize(before);
     block->distance[c] = best <= band_ ? static_cast<float>(best) : std::numeric_limits<float>::infinity();
     block->begin[c + 1] = static_cast<int>(list.size());
@@ -179,7 +205,8 @@ const BodyField::Block* BodyField::fill(int slot) const {
   return done;
 }
 
-std::int64_t BodyField::cell_of(const Vec3& p) const {
+std::int64_t BodyField::cell_of(const Vec3& p, double& at_least) const {
+  at_least = band_;
   const double inv = 1.0 / cell_;
   std::int64_t c[3];
   for (int a = 0; a < 3; ++a) {
@@ -196,7 +223,9 @@ std::int64_t BodyField::cell_of(const Vec3& p) const {
   const Block* block = blocks_[slot].load(std::memory_order_acquire);
   if (!block) block = fill(slot);
   const int in = static_cast<int>((c[2] % kBlock) * kBlock * kBlock + (c[1] % kBlock) * kBlock + c[0] % kBlock);
-  return block->distance[in] <= band_ ? std::int64_t(slot) * kCells + in : -1;
+  const double d = block->distance[in];
+  at_least = std::max(0.0, std::min(d, band_) - cell_radius());
+  return d <= band_ ? std::int64_t(slot) * kCells + in : -1;
 }
 
 }  // namespace kiji::solver_detail

@@ -36,9 +36,20 @@ class BodyField {
 
   // The cell holding p, or -1 when it is further than the band from the body. Safe from any number
   // of threads at once; the cell's block is filled in by the first to ask, the same whoever that is.
-  std::int64_t cell_of(const Vec3& p) const;
+  std::int64_t cell_of(const Vec3& p) const {
+    double at_least;
+    return cell_of(p, at_least);
+  }
+  // The same, and at least how far p is from the body: the band where the whole block is far from
+  // it, less than that where only the cell is, the cell's distance less its radius where it is near.
+  std::int64_t cell_of(const Vec3& p, double& at_least) const;
   // Unsigned distance from the cell's centre to the nearest triangle.
   float distance(std::int64_t cell) const { return block(cell)->distance[cell % kCells]; }
+  // How far the surface near the cell turns: the smallest cosine between the normals of two
+  // triangles, each behind the other (a convex turn), within turn_reach() of any point of the cell
+  // (1 where it is flat or hollow).
+  float turn(std::int64_t cell) const { return block(cell)->turn[cell % kCells]; }
+  double turn_reach() const { return band_ + 0.5 * cell_ - cell_radius(); }
   // The triangles whose boxes come within band() of the cell's centre (ascending by index): every
   // triangle within band() - cell_radius() of any point of the cell.
   const int* triangles(std::int64_t cell, int& count) const {
@@ -56,6 +67,7 @@ class BodyField {
   static constexpr int kCells = kBlock * kBlock * kBlock;
   struct Block {
     float distance[kCells];
+    float turn[kCells];
     int begin[kCells + 1];
     std::vector<int> list;
   };

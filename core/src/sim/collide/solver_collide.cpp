@@ -297,6 +297,122 @@ void resolve_body_against(SolverArrays& s, int i, double th, double mu, const in
   s.x[i] = x;
 }
 
+// One point of a cloth edge, at t from its end i to j, against the body's triangles c: kept
+// `clearance` out of them on the side it came from, with friction, as resolve_body_against keeps a
+// vertex, the push shared by the two ends as their weights allow (a point between two masses).
+void resolve_edge_point(SolverArrays& s, int i, int j, double t, double clearance, double mu, const int* c,
+                        int cnt) {
+  Vec3* X = s.x.data();
+  const double wi = s.w[i], wj = s.w[j];
+  const double ti = 1 - t;
+  const double weff = ti * ti * wi + t * t * wj;
+  if (!(weff > 0)) return;
+  const Vec3 x0 = ti * X[i] + t * X[j];
+  const Vec3 xp = ti * (s.moving[i] ? s.xp[i] : X[i]) + t * (s.moving[j] ? s.xp[j] : X[j]);
+  Vec3 x = x0;
+  double push = 0;
+  Vec3 nrm = Vec3::Zero();
+  for (int k = 0; k < cnt; ++k) {
+    const SolverArrays::BodyTri& T = s.body_tris[c[k]];
+    const double dn = (x - T.a).dot(T.n);
+    if (dn >= clearance) continue;
+    const double dp = (xp - T.a).dot(T.n);
+    if (dp >= 0 && dn < 0) {
+      double tc;
+      if (geom::segment_crosses_triangle(xp, x, T.a, T.b, T.c, tc)) {
+        x += (clearance - dn) * T.n;
+        push += clearance - dn;
+        nrm = T.n;
+        continue;
+      }
+    }
+    // Behind the triangle without having crossed it: on the far side of a thin part, or of an open
+    // sheet (a wing), where the vertices are kept; pushed through to the front, the edge dragged
+    // its cloth through the sheet.
+    if (dn < 0) continue;
+    const Box3& tb = s.body_boxes[c[k]];
+    if ((x - tb.max()).maxCoeff() >= clearance || (tb.min() - x).maxCoeff() >= clearance) continue;
+    const geom::ClosestPoint cp = geom::closest_on_triangle(x, T.a, T.b, T.c);
+    const Vec3 d = x - cp.point;
+    const double d2 = d.squaredNorm();
+    if (d2 >= clearance * clearance) continue;
+    const Vec3 dir = d2 > 1e-24 ? Vec3(d / std::sqrt(d2)) : T.n;
+    const Vec3 nx = cp.point + clearance * dir;
+    push += (nx - x).norm();
+    nrm = dir;
+    x = nx;
+  }
+  if (!(push > 0)) return;
+  if (mu > 0) {
+    const Vec3 dx = x - xp;
+    const Vec3 tan = dx - nrm * dx.dot(nrm);
+    const double lt = tan.norm();
+    if (lt > 0) x -= (lt <= mu * push) ? tan : Vec3(tan * (mu * push / lt));
+  }
+  const Vec3 move = (x - x0) / weff;
+  X[i] += (ti * wi) * move;
+  X[j] += (t * wj) * move;
+}
+
+void resolve_body_edges(SolverArrays& s, const BodyCollider& collider, const int* ei, const int* ej, int b, int e,
+                        double th, double clearance, double mu) {
+  const BodyField& f = *s.field;
+  const double reach = clearance + f.cell_radius();
+  const double fast2 = f.cell() * f.cell();
+  // Points no further apart than twice the clearance: a sharp ridge of the body between two of
+  // them, each kept the clearance from it, cannot come through the edge.
+  const double spacing = 2 * clearance;
+  const double covered = f.turn_reach() - clearance, listed = f.band() - f.cell_radius();
+  thread_local std::vector<int> tris;
+  for (int k = b; k < e; ++k) {
+    const int i = ei[k], j = ej[k];
+    const double len = (s.x[i] - s.x[j]).norm();
+    // Far from the body: a body point within the clearance of a point of a segment of length l is
+    // within sqrt(l^2 / 4 + clearance^2) of one of its ends. The ends' gaps, then the middle's. An
+    // end that did not move this substep was not looked up: taken as near and sharp, so that the
+    // step is the same whatever its arrays held before (a session reopened, a rebuild).
+    const bool mi = s.moving[i], mj = s.moving[j];
+    const double gi = mi ? s.body_gap[i] : 0.0, gj = mj ? s.body_gap[j] : 0.0;
+    if (std::min(gi, gj) * std::min(gi, gj) >= 0.25 * len * len + clearance * clearance) continue;
+    // Over a surface that turns by less than phi, ends kept the thickness from it leave the edge's
+    // middle about th - len phi / 4 from it, beyond the clearance. How the surface turns near the
+    // ends (and below, the middle), from their cells: together they list every triangle within the
+    // clearance of the edge when it is no longer than twice (four times) turn_reach - clearance.
+    const double phi = 4 * (th - clearance) / len, cos_phi = phi >= M_PI ? -1.0 : std::cos(phi);
+    const float ends_turn = std::min(mi ? s.body_turn[i] : -1.0f, mj ? s.body_turn[j] : -1.0f);
+    if (len <= 2 * covered && ends_turn >= cos_phi) continue;
+    double gm;
+    const std::int64_t mc = f.cell_of(0.5 * (s.x[i] + s.x[j]), gm);
+    const double g = std::min({gi, gj, gm});
+    if (g * g >= 0.0625 * len * len + clearance * clearance) continue;
+    if (len <= 4 * covered && std::min(ends_turn, mc < 0 ? 1.0f : f.turn(mc)) >= cos_phi) continue;
+    const int n = std::clamp(static_cast<int>(len / spacing), 1, kEdgePoints);
+    for (int q = 1; q <= n; ++q) {
+      const double t = double(q) / (n + 1);
+      const Vec3 x = (1 - t) * s.x[i] + t * s.x[j];
+      const Vec3 xp = (1 - t) * (s.moving[i] ? s.xp[i] : s.x[i]) + t * (s.moving[j] ? s.xp[j] : s.x[j]);
+      if ((x - xp).squaredNorm() > fast2) {
+        Box3 bx(xp.cwiseMin(x), xp.cwiseMax(x));
+        bx.min() -= Vec3::Constant(1.5 * clearance);
+        bx.max() += Vec3::Constant(1.5 * clearance);
+        if (!bx.intersects(s.body_bounds)) continue;
+        collider.triangles_in_box(bx, tris);
+        if (!tris.empty()) resolve_edge_point(s, i, j, t, clearance, mu, tris.data(), static_cast<int>(tris.size()));
+        continue;
+      }
+      // The middle's cell lists what is within the clearance of a point near the middle (allowing
+      // for the pushes of the points before it); further out, the point's own cell.
+      const double from_middle = std::abs(t - 0.5) * len;
+      const bool near_middle = mc >= 0 && from_middle + 2 * clearance <= listed;
+      const std::int64_t c = near_middle ? mc : f.cell_of(x);
+      if (c < 0 || f.distance(c) > reach + (near_middle ? from_middle : 0.0)) continue;
+      int count = 0;
+      const int* list = f.triangles(c, count);
+      resolve_edge_point(s, i, j, t, clearance, mu, list, count);
+    }
+  }
+}
+
 void prepare_body_field(SolverArrays& s, double th) {
   const double need = (1 + kHeldMargin) * th;
   if (s.body && (!s.field || need + s.field->cell_radius() > s.field->band())) s.field = BodyField::of(*s.body, need);
@@ -310,13 +426,21 @@ void resolve_body(SolverArrays& s, const BodyCollider& collider, const std::vect
   const double fast = f.cell();
   const int na = static_cast<int>(verts.size());
   s.escaped.resize(s.n);
+  s.body_gap.resize(s.n, 0.0f);
+  s.body_turn.resize(s.n, -1.0f);
   parallel::for_range(na, 1024, [&](int b, int e) {
     for (int a = b; a < e; ++a) {
       const int i = verts[a];
       const Vec3& x = s.x[i];
       s.escaped[i] = (x - s.xp[i]).squaredNorm() > fast * fast;
+      s.body_gap[i] = 0;
+      s.body_turn[i] = -1;
       if (s.escaped[i]) continue;
-      const std::int64_t c = f.cell_of(x);
+      double gap;
+      const std::int64_t c = f.cell_of(x, gap);
+      // Near the body, less the thickness: the push below moves the vertex by up to about that.
+      s.body_gap[i] = static_cast<float>(c < 0 ? gap : std::max(0.0, gap - th));
+      s.body_turn[i] = c < 0 ? 1.0f : f.turn(c);
       if (c < 0 || f.distance(c) > reach) {
         s.held_up[i] = 0;
         continue;

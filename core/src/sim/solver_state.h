@@ -338,10 +338,11 @@ void prepare_body_field(SolverArrays& s, double thickness);
 void resolve_body(SolverArrays& s, const BodyCollider& collider, const std::vector<int>& verts, double thickness,
                   double friction, bool floor);
 // The points of the edges [b, e) of (ei, ej) between their ends against the body, after
-// resolve_body (which prepares the field): kept `clearance` out of it on the side they came from, with friction,
-// each end moved by its share. Vertices alone let an edge pass through a part of the body thinner
-// than the edge is long (an ear, a finger, the head under a stretched edge) and hold it there.
-// Points at most two field cells apart, kEdgePoints at most.
+// resolve_body (which prepares the field and each moving vertex's gap and turn): kept `clearance`
+// out of it on the side they came from, with friction, each end moved by its share. Vertices alone
+// let a part of the body thinner than the cloth's spacing (an ear, a finger, a wing's edge) pass
+// between them and hold the cloth from inside. Points at most twice the clearance apart, at most
+// kEdgePoints of them; edges far from the body or over a smooth part of it are passed over.
 constexpr int kEdgePoints = 32;
 void resolve_body_edges(SolverArrays& s, const BodyCollider& collider, const int* ei, const int* ej, int b, int e,
                         double thickness, double clearance, double friction);

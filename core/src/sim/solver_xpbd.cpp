@@ -595,7 +595,9 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
         resolve_body(s, *body, s.act, th, m.friction, p.floor);
         // The edges after the vertices, half the thickness out: an edge over a smooth surface with
         // its ends at the thickness is clear of it, and is not touched.
-        auto edges = [&](int b, int e) { resolve_body_edges(s, *body, cs.e_i, cs.e_j, b, e, th, 0.5 * th, m.friction); };
+        auto edges = [&](int b, int e) {
+          resolve_body_edges(s, *body, cs.e_i, cs.e_j, b, e, th, 0.5 * th, m.friction);
+        };
         run_ranges(*cs.e_ranges, s.e_kinds, edges);
       }
       if (!s.point_pairs.empty())

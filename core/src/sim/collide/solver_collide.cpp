@@ -367,6 +367,8 @@ void resolve_body_edges(SolverArrays& s, const BodyCollider& collider, const int
   for (int k = b; k < e; ++k) {
     const int i = ei[k], j = ej[k];
     const double len = (s.x[i] - s.x[j]).norm();
+    // A step gone non-finite is undone after it; a point of an edge of no length is its ends'.
+    if (!(len > 0 && len < std::numeric_limits<double>::infinity())) continue;
     // Far from the body: a body point within the clearance of a point of a segment of length l is
     // within sqrt(l^2 / 4 + clearance^2) of one of its ends. The ends' gaps, then the middle's. An
     // end that did not move this substep was not looked up: taken as near and sharp, so that the

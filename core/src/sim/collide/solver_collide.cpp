@@ -388,7 +388,7 @@ void resolve_body_edges(SolverArrays& s, const BodyCollider& collider, const int
     const double g = std::min({gi, gj, gm});
     if (g * g >= 0.0625 * len * len + clearance * clearance) continue;
     if (len <= 4 * covered && std::min(ends_turn, mc < 0 ? 1.0f : f.turn(mc)) >= cos_phi) continue;
-    const int n = std::clamp(static_cast<int>(len / spacing), 1, kEdgePoints);
+    const int n = static_cast<int>(std::clamp(len / spacing, 1.0, double(kEdgePoints)));
     for (int q = 1; q <= n; ++q) {
       const double t = double(q) / (n + 1);
       const Vec3 x = (1 - t) * s.x[i] + t * s.x[j];

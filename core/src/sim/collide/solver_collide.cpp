@@ -392,7 +392,7 @@ void resolve_body_edges(SolverArrays& s, const BodyCollider& collider, const int
     for (int q = 1; q <= n; ++q) {
       const double t = double(q) / (n + 1);
       const Vec3 x = (1 - t) * s.x[i] + t * s.x[j];
-      const Vec3 xp = (1 - t) * (s.moving[i] ? s.xp[i] : s.x[i]) + t * (s.moving[j] ? s.xp[j] : s.x[j]);
+      const Vec3 xp = (1 - t) * (mi ? s.xp[i] : s.x[i]) + t * (mj ? s.xp[j] : s.x[j]);
       if ((x - xp).squaredNorm() > fast2) {
         Box3 bx(xp.cwiseMin(x), xp.cwiseMax(x));
         bx.min() -= Vec3::Constant(1.5 * clearance);

@@ -44,6 +44,15 @@ struct ToolEvent {
 // A recorded stroke: Begin, Moves, then End (or Cancel).
 using Stroke = std::vector<ToolEvent>;
 
+// The event that ends a stroke unfinished at `time` (a peer gone, a lease taken back, a journal
+// that ends mid-stroke).
+inline ToolEvent cancel_event(double time) {
+  ToolEvent e;
+  e.phase = Phase::Cancel;
+  e.time = time;
+  return e;
+}
+
 struct Feedback {
   Vec3 force{0, 0, 0};   // newtons, on the user's hand
   Vec3 torque{0, 0, 0};  // newton-metres

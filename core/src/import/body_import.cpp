@@ -111,14 +111,14 @@ std::optional<ColladaConversion> collada_conversion(const aiNode* root) {
   return ColladaConversion{s, *up};
 }
 
-struct Soup {
+struct MeshSoup {
   std::vector<Vec3> vertices;
   std::vector<std::array<int, 3>> triangles;
   std::size_t meshes = 0;  // mesh instances that gave triangles
 };
 
 void collect(const aiScene* scene, const aiNode* node, const Eigen::Matrix4d& parent, bool skip_own,
-             Soup& soup) {
+             MeshSoup& soup) {
   const Eigen::Matrix4d t = skip_own ? parent : Eigen::Matrix4d(parent * to_eigen(node->mTransformation));
   for (unsigned i = 0; i < node->mNumMeshes; ++i) {
     if (node->mMeshes[i] >= scene->mNumMeshes) continue;
@@ -161,7 +161,7 @@ struct PositionHash {
 
 // Welds vertices at exactly the same position (the same file position transformed by the same
 // node transform lands on the same doubles), drops degenerate triangles and unused vertices.
-Soup weld(const Soup& in) {
+MeshSoup weld(const MeshSoup& in) {
   std::unordered_map<Vec3, int, PositionHash> index;
   index.reserve(in.vertices.size());
   std::vector<int> remap(in.vertices.size());
@@ -171,7 +171,7 @@ Soup weld(const Soup& in) {
     if (inserted) unique.push_back(in.vertices[i]);
     remap[i] = it->second;
   }
-  Soup out;
+  MeshSoup out;
   std::vector<int> used(unique.size(), -1);
   for (const auto& t : in.triangles) {
     const std::array<int, 3> w{remap[t[0]], remap[t[1]], remap[t[2]]};
@@ -204,7 +204,7 @@ Vec3 axis_vector(Axis a) {
 }
 
 // Area-weighted centroid of the triangles whose centroid is at a height within [lo, hi).
-std::optional<Vec3> slice_centroid(const Soup& s, double lo, double hi) {
+std::optional<Vec3> slice_centroid(const MeshSoup& s, double lo, double hi) {
   Vec3 sum = Vec3::Zero();
   double area = 0;
   for (const auto& t : s.triangles) {
@@ -223,7 +223,7 @@ std::optional<Vec3> slice_centroid(const Soup& s, double lo, double hi) {
 // feet's centroid lies ahead of the shins' (by 2-5 % of the height in the bodies tried: a scanned
 // human, Quake II characters), while left and right cancel. Nothing when the cue is under 1 %
 // (a body without feet, or in a robe).
-std::optional<Vec3> front_from_feet(const Soup& s) {
+std::optional<Vec3> front_from_feet(const MeshSoup& s) {
   Box3 box;
   for (const Vec3& p : s.vertices) box.extend(p);
   const double h = box.sizes().y(), y0 = box.min().y();
@@ -246,7 +246,7 @@ Eigen::Matrix3d turn_to_face_z(const Vec3& front) {
   return r;
 }
 
-double median_edge(const Soup& s) {
+double median_edge(const MeshSoup& s) {
   std::vector<double> lengths;
   lengths.reserve(3 * s.triangles.size());
   for (const auto& t : s.triangles)
@@ -261,7 +261,7 @@ double median_edge(const Soup& s) {
 // moved towards its neighbours (Loop 1987, with Warren's weights). An edge with one face, or more
 // than two (a game model's parts meeting along an edge), is kept as a crease, and a vertex where
 // creases meet other than two at a time stays where it is.
-Soup loop_subdivide(const Soup& in) {
+MeshSoup loop_subdivide(const MeshSoup& in) {
   const std::size_t nv = in.vertices.size();
   struct EdgeInfo {
     int index = -1;   // the edge's new point
@@ -279,7 +279,7 @@ Soup loop_subdivide(const Soup& in) {
       ++e.faces;
       e.opposite += in.vertices[t[(k + 2) % 3]];
     }
-  Soup out;
+  MeshSoup out;
   out.meshes = in.meshes;
   out.vertices.resize(nv + edges.size());
   std::vector<Vec3> ring(nv, Vec3::Zero()), crease(nv, Vec3::Zero());
@@ -535,13 +535,13 @@ Body load_here(const std::string& path, const BodyImportOptions& options) {
     report.scale_source = "option";
   }
 
-  Soup soup;
+  MeshSoup soup;
   collect(scene, scene->mRootNode, Eigen::Matrix4d::Identity(), skip_root, soup);
   report.meshes_merged = soup.meshes;
   const Eigen::Matrix3d rot = rotation_to_y_up(up);
   for (Vec3& p : soup.vertices) p = rot * p;
 
-  Soup body = weld(soup);
+  MeshSoup body = weld(soup);
   if (body.triangles.empty())
     fail(path, "all of its triangles are degenerate (zero area): a body needs a surface; check the export");
   if (options.smooth && body.triangles.size() >= 100) {

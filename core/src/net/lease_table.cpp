@@ -9,13 +9,6 @@ namespace kiji::detail {
 
 namespace {
 
-ToolEvent cancel_event(double time) {
-  ToolEvent e;
-  e.phase = Phase::Cancel;
-  e.time = time;
-  return e;
-}
-
 // The table's fields, in the order a snapshot has them.
 template <class A>
 void fields(A& a, Field<A, std::map<UserId, Lease>>& leases) {

@@ -32,13 +32,6 @@ constexpr double kRepairWindow = 0.15;
 constexpr double kRejoinAfter = 0.2;
 constexpr int kMostKeepAlives = 64;
 
-ToolEvent cancel_event(double time) {
-  ToolEvent e;
-  e.phase = Phase::Cancel;
-  e.time = time;
-  return e;
-}
-
 }  // namespace
 
 void PeerOptions::validate() const {

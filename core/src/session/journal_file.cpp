@@ -324,13 +324,6 @@ Operation parse_operation(const json& j, const Reader& r) {
   return op;
 }
 
-ToolEvent cancel_event(double time) {
-  ToolEvent e;
-  e.phase = Phase::Cancel;
-  e.time = time;
-  return e;
-}
-
 void write_json(const json& doc, const std::string& path, const char* what) {
   std::ofstream out(path);
   if (!out) throw InputError(std::string("cannot write the ") + what + " '" + path +

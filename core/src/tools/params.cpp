@@ -1,6 +1,7 @@
 #include "kiji/params.h"
 
 #include "kiji/error.h"
+#include "tools/identifier.h"
 
 #include <cctype>
 #include <cmath>
@@ -22,15 +23,8 @@ const char* param_type_name(ParamType type) {
 
 namespace {
 
-bool is_identifier(const std::string& s) {
-  if (s.empty() || !(std::isalpha(static_cast<unsigned char>(s[0])) || s[0] == '_')) return false;
-  for (char c : s)
-    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_')) return false;
-  return true;
-}
-
 ParamSpec base(std::string name, ParamType type, ParamValue value, std::string label, std::string help) {
-  if (!is_identifier(name))
+  if (!detail::is_identifier(name))
     throw InputError("parameter name '" + name + "' is not an identifier: use letters, digits and _");
   ParamSpec s;
   s.name = std::move(name);

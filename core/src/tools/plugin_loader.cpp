@@ -1,6 +1,7 @@
 #include "kiji/plugin_loader.h"
 
 #include "kiji/error.h"
+#include "tools/identifier.h"
 
 #include <dlfcn.h>
 #include <nlohmann/json.hpp>
@@ -166,22 +167,15 @@ std::vector<std::string> split_path(const char* text) {
 // Plugin metadata is a few kilobytes; anything far larger is not metadata.
 constexpr std::uintmax_t kMaxMetadataBytes = 1 << 20;
 
-bool is_identifier(const std::string& s) {
-  if (s.empty() || !(std::isalpha(static_cast<unsigned char>(s[0])) || s[0] == '_')) return false;
-  for (char c : s)
-    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_')) return false;
-  return true;
-}
-
 }  // namespace
 
 void check_tool_info(const ToolInfo& info) {
-  if (!is_identifier(info.id))
+  if (!detail::is_identifier(info.id))
     throw InputError("tool id '" + info.id + "' is not a verb usable as a Python name (letters, digits and _)");
   if (info.label.empty()) throw InputError("tool '" + info.id + "' has no label");
   std::set<std::string> names;
   for (const auto& p : info.parameters) {
-    if (!is_identifier(p.name))
+    if (!detail::is_identifier(p.name))
       throw InputError("tool '" + info.id + "': parameter name '" + p.name +
                        "' is not an identifier: use letters, digits and _");
     if (!names.insert(p.name).second)

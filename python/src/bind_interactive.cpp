@@ -89,10 +89,7 @@ void bind_interactive(py::module_& m) {
     SessionGuard lock(self);
     const std::string tool = self.stroke_tool(user);
     if (tool.empty()) return false;
-    ToolEvent e;
-    e.phase = Phase::Cancel;
-    e.time = self.time();
-    apply_event(self, tool, e, nullptr, user);
+    apply_event(self, tool, cancel_event(self.time()), nullptr, user);
     return true;
   }, py::kw_only(), py::arg("user") = 0,
      "Abandons the user's stroke: the garments go back to where it began. False if there was none.");

@@ -285,19 +285,29 @@ void bind_solver(py::module_& m) {
       .def_readonly("wall_seconds", &DrapeResult::wall_seconds)
       .def_readonly("steps", &DrapeResult::steps)
       .def_readonly("measures", &DrapeResult::measures)
+      .def_readonly("coarse_vertices", &DrapeResult::coarse_vertices)
+      .def_readonly("coarse_steps", &DrapeResult::coarse_steps)
+      .def_readonly("coarse_wall_seconds", &DrapeResult::coarse_wall_seconds)
       .def("__repr__", [](const DrapeResult& r) {
         return "DrapeResult(seconds_simulated=" + std::to_string(r.seconds_simulated) + ", steps=" +
-               std::to_string(r.steps) + ", wall_seconds=" + std::to_string(r.wall_seconds) + ")";
+               std::to_string(r.steps) + ", coarse_vertices=" + std::to_string(r.coarse_vertices) +
+               ", coarse_steps=" + std::to_string(r.coarse_steps) + ", wall_seconds=" + std::to_string(r.wall_seconds) +
+               ")";
       });
   m.def("drape",
         [](std::shared_ptr<GarmentRef> g, std::shared_ptr<Body> body, double seconds, double frame_rate,
-           std::optional<SolverParams> solver, const py::object& progress) {
+           std::optional<SolverParams> solver, double coarse_ratio, int coarse_substeps, double fine_seconds,
+           double fine_damping, const py::object& progress) {
           if (!g) throw py::type_error("drape: expected a kiji.Garment");
           if (!body) throw py::type_error("drape: expected a kiji.Body");
           DrapeOptions o;
           o.seconds = seconds;
           o.frame_rate = frame_rate;
           if (solver) o.solver = *solver;
+          o.coarse_ratio = coarse_ratio;
+          o.coarse_substeps = coarse_substeps;
+          o.fine_seconds = fine_seconds;
+          o.fine_damping = fine_damping;
           o.validate();
           const ProgressHook hook(progress);
           DrapeResult result;
@@ -308,10 +318,15 @@ void bind_solver(py::module_& m) {
           return result;
         },
         py::arg("garment"), py::arg("body"), py::kw_only(), py::arg("seconds") = 3.0, py::arg("frame_rate") = 60.0,
-        py::arg("solver") = py::none(), py::arg("progress") = py::none(),
+        py::arg("solver") = py::none(), py::arg("coarse_ratio") = DrapeOptions{}.coarse_ratio,
+        py::arg("coarse_substeps") = DrapeOptions{}.coarse_substeps, py::arg("fine_seconds") = DrapeOptions{}.fine_seconds,
+        py::arg("fine_damping") = DrapeOptions{}.fine_damping, py::arg("progress") = py::none(),
         "The C++ drape: simulates the garment on the body for `seconds` (the drape's solver by default: 40\n"
-        "substeps a step) with the GIL released. Place it first with kiji.place_over_body. On a garment of\n"
-        "a session the draped garment is one set_garment operation. progress(fraction) may return False.");
+        "substeps a step) with the GIL released. Place it first with kiji.place_over_body. A flat garment of\n"
+        "2,000 vertices or more falls first as a copy remeshed with edges coarse_ratio times as long (at\n"
+        "coarse_substeps), then settles itself for the last fine_seconds with its damping raised to\n"
+        "fine_damping; coarse_ratio=1 drapes the garment itself throughout. On a garment of a session the\n"
+        "draped garment is one set_garment operation. progress(fraction) may return False.");
 }
 
 }  // namespace kiji::python

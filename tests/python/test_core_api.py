@@ -97,6 +97,31 @@ def test_the_cpp_drape_settles_a_garment_on_a_body():
         kiji.drape(g, body, seconds=-1.0)
 
 
+def test_a_fine_garment_falls_first_as_a_coarse_copy():
+    # Over 2,000 vertices and flat: a copy with edges three times as long falls first, then the
+    # garment settles itself for the last half second; coarse_ratio=1 drapes the garment itself.
+    body = box_body()
+    g = kiji.rectangle(0.6, 0.6, spacing=0.012)
+    assert len(g.positions) > 2000
+    kiji.place_over_body(g, body, 0.02)
+    result = kiji.drape(g, body, seconds=1.0)
+    assert 0 < result.coarse_vertices < len(g.positions) / 5
+    assert (result.coarse_steps, result.steps) == (30, 30)
+    assert result.seconds_simulated == pytest.approx(1.0)
+    assert 0 < result.coarse_wall_seconds < result.wall_seconds
+    assert result.measures.max_strain < 0.10 and result.measures.max_penetration < 0.01
+    assert g.bounds[0, 1] < 0.95  # the cloth hangs over the sides
+    assert g.material.damping == kiji.Material("cotton").damping  # its own, after the settle
+    itself = kiji.rectangle(0.6, 0.6, spacing=0.012)
+    kiji.place_over_body(itself, body, 0.02)
+    plain = kiji.drape(itself, body, seconds=0.2, coarse_ratio=1)
+    assert (plain.coarse_vertices, plain.steps) == (0, 12)
+    for bad, word in ((dict(coarse_ratio=0.5), "coarse_ratio"), (dict(coarse_substeps=0), "coarse_substeps"),
+                      (dict(fine_seconds=-1.0), "fine_seconds"), (dict(fine_damping=float("nan")), "fine_damping")):
+        with pytest.raises(kiji.InputError, match=word):
+            kiji.drape(g, body, seconds=1.0, **bad)
+
+
 # --- garments: per-edge arrays and topology edits ---
 
 def test_per_edge_arrays_follow_the_edges_and_edits_are_journaled():

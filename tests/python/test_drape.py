@@ -1,5 +1,6 @@
 """One drape: Session.drape drapes a garment as `kiji drape` (kiji.drape) does, step for step, and
-gives the session back its interactive settings afterwards."""
+gives the session back its interactive settings afterwards. (kiji.drape lets a flat garment of 2,000
+vertices or more fall first as a coarse copy; these garments are smaller, as coarse_ratio=1 is.)"""
 import os
 import subprocess
 

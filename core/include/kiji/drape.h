@@ -28,20 +28,35 @@ struct DrapeOptions {
     p.substeps = 40;
     return p;
   }();
+  // Coarse first: a flat garment at rest, without pins, falls as a copy of itself remeshed with
+  // edges `coarse_ratio` times as long (a ninth of the vertices at 3), at `coarse_substeps`, for
+  // all but the last `fine_seconds`; the garment then takes the copy's shape and velocity and
+  // settles at its own resolution and `solver`, its damping raised to at least `fine_damping`
+  // (per second) meanwhile. The default cloth drapes in about a quarter of the time, as
+  // unstretched (docs/benchmarks.md, "The drape, coarse first"). 1 drapes the garment itself
+  // throughout; a garment that is not flat, is pinned or has under 2,000 vertices is draped so.
+  double coarse_ratio = 3.0;
+  int coarse_substeps = 15;
+  double fine_seconds = 0.5;
+  double fine_damping = 8.0;
   void validate() const;
 };
 
 struct DrapeResult {
   double seconds_simulated = 0;
   double wall_seconds = 0;
-  std::size_t steps = 0;
+  std::size_t steps = 0;          // the garment's own, after the coarse copy's
   ClothMeasures measures;        // at the end
+  std::size_t coarse_vertices = 0;  // the coarse copy's (0: the garment was draped itself throughout)
+  std::size_t coarse_steps = 0;
+  double coarse_wall_seconds = 0;   // of wall_seconds: remeshing, the copy's drape, the transfer
 };
 
 // Called after each step with the fraction done; return false to stop early.
 using DrapeProgress = std::function<bool(double fraction)>;
 
-// Simulates the garment on the body for options.seconds. Throws InputError for bad options.
+// Simulates the garment on the body for options.seconds (coarse first where DrapeOptions says).
+// Throws InputError for bad options.
 DrapeResult drape(Garment& garment, const Body& body, const DrapeOptions& options = {},
                   const DrapeProgress& progress = {});
 

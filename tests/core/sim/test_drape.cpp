@@ -2,13 +2,18 @@
 // it has come to rest, it lies on the body, nothing is inside the body, the cloth is not torn apart.
 #include "kiji/collision.h"
 #include "kiji/drape.h"
+#include "kiji/error.h"
 #include "kiji/pattern.h"
 #include "kiji/solver.h"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
 
 using namespace kiji;
 
@@ -29,6 +34,12 @@ TEST(Drape, SettlesOnTheDefaultBody) {
   options.seconds = 3.0;
   const DrapeResult r = drape(g, body, options);
   const ClothMeasures& m = r.measures;
+  // It fell first as a coarse copy (edges three times as long: about a ninth of the vertices), then
+  // settled itself for the last half second.
+  EXPECT_GT(r.coarse_vertices, g.mesh().number_of_vertices() / 15);
+  EXPECT_LT(r.coarse_vertices, g.mesh().number_of_vertices() / 5);
+  EXPECT_EQ(r.coarse_steps + r.steps, 180u);
+  EXPECT_EQ(r.steps, 30u);
   const double thickness = g.material().thickness;
   double height_after = 0;
   for (Vertex v : g.mesh().vertices()) height_after += g.mass(v) * g.position(v).y();
@@ -216,4 +227,138 @@ TEST(Drape, SettlesOnALowPolyGameCharacter) {
   // It hangs over the head and shoulders, front and back alike: the body faces the cloth's front.
   EXPECT_GT(g.bounds().min().y(), 0.5 * body.height());
   EXPECT_NEAR(g.bounds().center().z(), 0.5 * (body.bounds().min().z() + body.bounds().max().z()), 0.1);
+}
+
+// The coarse copy stands in for the garment: the same cloth draped coarse first and draped itself
+// throughout hangs the same way on the body (where its folds fall is chaotic: the vertices themselves
+// are some centimetres apart either way), both unstretched and at rest.
+TEST(Drape, ACoarseCopyFallsAsTheGarmentWould) {
+  const Body body = Body::load(Body::default_path());
+  auto draped = [&](double ratio, DrapeResult& r) {
+    Garment g = make_rectangle_spaced(0.8, 0.8, 0.015, Material::preset("cotton"));
+    place_over_body(g, body);
+    DrapeOptions options;
+    options.seconds = 2.5;
+    options.coarse_ratio = ratio;
+    r = drape(g, body, options);
+    return g;
+  };
+  DrapeResult itself, coarse;
+  const Garment a = draped(1.0, itself), b = draped(3.0, coarse);
+  EXPECT_EQ(itself.coarse_vertices, 0u);
+  EXPECT_EQ(itself.steps, 150u);
+  EXPECT_GT(coarse.coarse_vertices, 0u);
+  auto centre = [](const Garment& g) {
+    Vec3 c = Vec3::Zero();
+    for (Vertex v : g.mesh().vertices()) c += g.position(v);
+    return Vec3(c / double(g.mesh().number_of_vertices()));
+  };
+  EXPECT_LT((centre(a) - centre(b)).norm(), 0.05);
+  EXPECT_NEAR(a.bounds().min().y(), b.bounds().min().y(), 0.05) << "the hem hangs as low";
+  EXPECT_NEAR(a.bounds().max().y(), b.bounds().max().y(), 0.01) << "on the head";
+  for (const DrapeResult* r : {&itself, &coarse}) {
+    const ClothMeasures& m = r->measures;
+    EXPECT_LT(m.max_strain, 0.10);
+    EXPECT_LT(m.mean_strain, 0.01);
+    EXPECT_LE(m.max_penetration, a.material().thickness);
+    EXPECT_LT(m.kinetic_energy, 1e-3);
+    EXPECT_GT(m.contacts, a.mesh().number_of_vertices() / 20);
+  }
+}
+
+// A pattern with a hole (a neck opening cut before the drape): each of its vertices takes its place
+// from the coarse copy's triangle around it, none from a triangle across the hole, so no edge comes
+// out stretched, and the garment has its hole, its vertices and its material as before.
+TEST(Drape, APatternWithAHoleFallsCoarseFirst) {
+  const Body body = Body::load(Body::default_path());
+  const Garment grid = make_rectangle_spaced(1.0, 0.8, 0.012, Material::preset("cotton"));
+  const Vec3 middle = grid.bounds().center();
+  Mesh m;
+  std::vector<Vertex> to(grid.vertex_capacity());
+  for (Face f : grid.mesh().faces()) {
+    Vec3 c = Vec3::Zero();
+    std::array<Vertex, 3> t;
+    int k = 0;
+    for (Vertex v : CGAL::vertices_around_face(grid.mesh().halfedge(f), grid.mesh())) {
+      c += grid.position(v) / 3;
+      t[k++] = v;
+    }
+    if ((c - middle).norm() < 0.12) continue;
+    for (Vertex& v : t) {
+      if (to[v.idx()] == Vertex()) to[v.idx()] = m.add_vertex(grid.mesh().point(v));
+      v = to[v.idx()];
+    }
+    m.add_face(t[0], t[1], t[2]);
+  }
+  Garment g(std::move(m), Material::preset("cotton"));
+  const std::size_t vertices = g.mesh().number_of_vertices();
+  const std::size_t borders = [&] {
+    std::size_t n = 0;
+    for (Edge e : g.mesh().edges()) n += g.mesh().is_border(e);
+    return n;
+  }();
+  ASSERT_GT(vertices, 5000u);
+  place_over_body(g, body);
+  DrapeOptions options;
+  options.seconds = 2.0;
+  const DrapeResult r = drape(g, body, options);
+  EXPECT_GT(r.coarse_vertices, 0u);
+  EXPECT_TRUE(g.is_valid());
+  EXPECT_EQ(g.mesh().number_of_vertices(), vertices);
+  std::size_t after = 0;
+  for (Edge e : g.mesh().edges()) after += g.mesh().is_border(e);
+  EXPECT_EQ(after, borders) << "the hole and the outline are as they were";
+  EXPECT_EQ(g.material().damping, Material::preset("cotton").damping) << "its own damping back";
+  EXPECT_LT(r.measures.max_strain, 0.10);
+  EXPECT_LE(r.measures.max_penetration, g.material().thickness);
+  EXPECT_GT(r.measures.contacts, vertices / 20);
+}
+
+// What a coarse copy cannot stand for is draped itself: a garment held by a pin (the copy has no
+// vertex there), and one not lying flat (already draped, or sewn into a tube).
+TEST(Drape, APinnedOrDrapedGarmentFallsItself) {
+  const Body body = Body::load(Body::default_path());
+  Garment pinned = make_rectangle_spaced(0.6, 0.6, 0.01, Material::preset("cotton"));
+  place_over_body(pinned, body);
+  const Vertex pin = *pinned.mesh().vertices().begin();
+  const Vec3 at = pinned.position(pin);
+  pinned.set_pinned(pin, true);
+  DrapeOptions options;
+  options.seconds = 0.25;
+  options.fine_seconds = 0.1;
+  const DrapeResult r = drape(pinned, body, options);
+  EXPECT_EQ(r.coarse_vertices, 0u);
+  EXPECT_EQ(r.steps, 15u);
+  EXPECT_EQ(pinned.position(pin), at) << "the pin holds";
+  pinned.set_pinned(pin, false);
+  const DrapeResult again = drape(pinned, body, options);
+  EXPECT_EQ(again.coarse_vertices, 0u) << "no longer flat";
+}
+
+TEST(Drape, BadCoarseOptionsSayWhatToGive) {
+  const Body body = Body::load(Body::default_path());
+  Garment g = make_rectangle_spaced(0.3, 0.3, 0.05, Material::preset("cotton"));
+  auto refused = [&](DrapeOptions o) {
+    try {
+      drape(g, body, o);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  DrapeOptions o;
+  o.coarse_ratio = 0.5;
+  EXPECT_NE(refused(o).find("coarse_ratio is 0.5: give 1"), std::string::npos) << refused(o);
+  o = {};
+  o.coarse_ratio = std::nan("");
+  EXPECT_NE(refused(o).find("coarse_ratio"), std::string::npos) << refused(o);
+  o = {};
+  o.coarse_substeps = 0;
+  EXPECT_NE(refused(o).find("coarse_substeps is 0: give 1 to 1000"), std::string::npos) << refused(o);
+  o = {};
+  o.fine_seconds = -1;
+  EXPECT_NE(refused(o).find("fine_seconds is -1"), std::string::npos) << refused(o);
+  o = {};
+  o.fine_damping = std::numeric_limits<double>::infinity();
+  EXPECT_NE(refused(o).find("fine_damping is inf"), std::string::npos) << refused(o);
 }

@@ -29,12 +29,13 @@ struct DrapeOptions {
     return p;
   }();
   // Coarse first: a flat garment at rest, without pins, falls as a copy of itself remeshed with
-  // edges `coarse_ratio` times as long (a ninth of the vertices at 3), at `coarse_substeps`, for
-  // all but the last `fine_seconds`; the garment then takes the copy's shape and velocity and
+  // edges `coarse_ratio` times as long (a ninth of the vertices at 3), but no longer than 4 cm, at
+  // `coarse_substeps`, for all but the last `fine_seconds`; the garment then takes the copy's shape and velocity and
   // settles at its own resolution and `solver`, its damping raised to at least `fine_damping`
   // (per second) meanwhile. The default cloth drapes in about a quarter of the time, as
   // unstretched (docs/benchmarks.md, "The drape, coarse first"). 1 drapes the garment itself
-  // throughout; a garment that is not flat, is pinned or has under 2,000 vertices is draped so.
+  // throughout; so is a garment that is not flat, is pinned, has under 2,000 vertices or whose
+  // edges are over 2.7 cm (a copy could not be half as fine again).
   double coarse_ratio = 3.0;
   int coarse_substeps = 15;
   double fine_seconds = 0.5;

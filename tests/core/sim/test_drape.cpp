@@ -315,8 +315,9 @@ TEST(Drape, APatternWithAHoleFallsCoarseFirst) {
 }
 
 // What a coarse copy cannot stand for is draped itself: a garment held by a pin (the copy has no
-// vertex there), and one not lying flat (already draped, or sewn into a tube).
-TEST(Drape, APinnedOrDrapedGarmentFallsItself) {
+// vertex there), one not lying flat (already draped, or sewn into a tube), and one whose edges are
+// too long for a copy to be half as fine again within the copy's 4 cm.
+TEST(Drape, APinnedDrapedOrCoarseGarmentFallsItself) {
   const Body body = Body::load(Body::default_path());
   Garment pinned = make_rectangle_spaced(0.6, 0.6, 0.01, Material::preset("cotton"));
   place_over_body(pinned, body);
@@ -333,6 +334,13 @@ TEST(Drape, APinnedOrDrapedGarmentFallsItself) {
   pinned.set_pinned(pin, false);
   const DrapeResult again = drape(pinned, body, options);
   EXPECT_EQ(again.coarse_vertices, 0u) << "no longer flat";
+  Garment coarse = make_rectangle_spaced(1.5, 1.5, 0.03, Material::preset("cotton"));
+  ASSERT_GT(coarse.mesh().number_of_vertices(), 2000u);
+  place_over_body(coarse, body);
+  EXPECT_EQ(drape(coarse, body, options).coarse_vertices, 0u);
+  Garment fine = make_rectangle_spaced(1.0, 1.0, 0.02, Material::preset("cotton"));
+  place_over_body(fine, body);
+  EXPECT_GT(drape(fine, body, options).coarse_vertices, 0u) << "a 2 cm cloth falls as a 4 cm copy";
 }
 
 TEST(Drape, BadCoarseOptionsSayWhatToGive) {

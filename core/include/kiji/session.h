@@ -76,10 +76,12 @@ class Session {
   // Lets the garments fall and settle on the body for `seconds` (0 to 3600): each laid over the
   // body first (place_over_body, when `place`), then stepped with the session's own solver settings
   // at the drape's substeps (at least DrapeOptions's), a paused session running for it; the
-  // settings and the pause come back after. Every change is a journaled operation. For one garment
-  // and default settings it gives what kiji::drape gives, bit for bit. `progress` (after each step,
-  // with the fraction done) may return false to stop early. Throws InputError when `place` and
-  // there is no body (without one and not placed, the garments settle under their pins).
+  // settings and the pause come back after. Every change is a journaled operation. The garments
+  // fall themselves, never as a coarse copy: for one garment and default settings it gives what
+  // kiji::drape gives with coarse_ratio 1 (or to a garment under 2,000 vertices), bit for bit.
+  // `progress` (after each step, with the fraction done) may return false to stop early. Throws
+  // InputError when `place` and there is no body (without one and not placed, the garments settle
+  // under their pins).
   void drape(double seconds, const std::function<bool(double)>& progress = {}, bool place = true,
              double clearance = 0.02);
 

@@ -990,28 +990,40 @@ class StudioTest : public QObject {
       // 30 cm below the shoulder, as the eye finds them: where a border loop runs on this side
       // below that height (two runs, one a panel), from the corner (as far out and down as the run
       // goes) to the run's upper end.
-      const auto panels = with_session([&](Session& s) {
+      const auto found = with_session([&](Session& s) {
         const Garment& g = s.garment(0);
         auto out_of_middle = [&](const Vec3& p) { return left ? crown.x() - p.x() : p.x() - crown.x(); };
+        auto below = [&](const Vec3& p) { return out_of_middle(p) > 0.08 && p.y() < shoulder - 0.3; };
         std::vector<std::vector<Vec3>> runs;
         for (const auto& l : border_loops(g)) {
+          // Started at a vertex outside the runs, so that none goes through the loop's start.
+          std::size_t start = 0;
+          while (start < l.size() && below(g.position(l[start]))) ++start;
+          if (start == l.size()) start = 0;
           std::vector<std::vector<Vec3>> here(1);
-          for (Vertex v : l) {
-            const Vec3 p = g.position(v);
-            if (out_of_middle(p) > 0.08 && p.y() < shoulder - 0.3) here.back().push_back(p);
-            else if (!here.back().empty()) here.emplace_back();
-          }
-          if (here.size() > 1 && !here.back().empty() && !here.front().empty() && out_of_middle(g.position(l.front())) > 0.08 &&
-              g.position(l.front()).y() < shoulder - 0.3) {  // a run through the loop's start is one run
-            here.back().insert(here.back().end(), here.front().begin(), here.front().end());
-            here.erase(here.begin());
+          std::size_t gap = 0;
+          for (std::size_t k = 0; k < l.size(); ++k) {
+            const Vec3 p = g.position(l[(start + k) % l.size()]);
+            if (below(p)) {
+              here.back().push_back(p);
+              gap = 0;
+            } else if (!here.back().empty() && ++gap > 2) {  // the eye follows a border over a small fold out and back
+              here.emplace_back();
+            }
           }
           for (auto& r : here)
             if (r.size() > 1) runs.push_back(std::move(r));
         }
         std::sort(runs.begin(), runs.end(), [](const auto& a, const auto& b) { return a.size() > b.size(); });
+        QString seen;
+        for (const auto& r : runs) {
+          Box3 b;
+          for (const Vec3& p : r) b.extend(p);
+          seen += QString(" [%1: x %2..%3, y %4..%5, z %6..%7]").arg(r.size()).arg(b.min().x(), 0, 'f', 2).arg(b.max().x(), 0, 'f', 2)
+                      .arg(b.min().y(), 0, 'f', 2).arg(b.max().y(), 0, 'f', 2).arg(b.min().z(), 0, 'f', 2).arg(b.max().z(), 0, 'f', 2);
+        }
         std::array<std::vector<Vec3>, 2> sides;  // front, back
-        if (runs.size() < 2) return sides;
+        if (runs.size() < 2) return std::pair(sides, seen);
         for (int i = 0; i < 2; ++i) {
           auto& r = runs[std::size_t(i)];
           std::size_t corner = 0;
@@ -1026,10 +1038,15 @@ class StudioTest : public QObject {
         for (int i = 0; i < 2; ++i)
           for (const Vec3& p : sides[std::size_t(i)]) z[i] += p.z() / double(sides[std::size_t(i)].size());
         if (z[1] > z[0]) std::swap(sides[0], sides[1]);
-        return sides;
+        return std::pair(sides, seen);
       });
+      const auto& panels = found.first;
+      if (panels[0].size() <= 5 || panels[1].size() <= 5) QVERIFY(studio_->save_session(shots + "/fallen.kiji"));
       QVERIFY2(panels[0].size() > 5 && panels[1].size() > 5,
-               qPrintable(QString("%1 front and %2 back border vertices found on the side").arg(panels[0].size()).arg(panels[1].size())));
+               qPrintable(QString("%1 front and %2 back border vertices found on the %3 side, 30 cm below the shoulder (%4 m) "
+                                  "and 8 cm out of the middle; the border runs there:%5")
+                              .arg(panels[0].size()).arg(panels[1].size()).arg(left ? "left" : "right")
+                              .arg(shoulder, 0, 'f', 2).arg(found.second)));
       corners_met = std::min(corners_met, 0.5 * (panels[0].front().y() + panels[1].front().y()));
       for (int panel = 0; panel < 2; ++panel) {
         const auto& p = panels[std::size_t(panel)];

@@ -1069,8 +1069,7 @@ class StudioTest : public QObject {
     // The seams close as the cloth is drawn together (the app sews as a seam closes): tacked now,
     // sewn during a drape of 0.8 s, or of a second where a pair has not met yet (one run of the
     // whole program, on a busy machine, left one pair after the first), which leaves one piece with
-    // four openings (the hem, the neck and two armholes) and the tunic down over the hips, its hem
-    // where the sides' corners met.
+    // four openings (the hem, the neck and two armholes) and the tunic down over the hips.
     auto tacks = [&] { return with_session([](Session& s) { return s.garment(0).tacks.size(); }); };
     QVERIFY(tacks() > 20);
     // Kept for whoever looks into a seam that did not close.

@@ -202,6 +202,11 @@ struct SolverArrays {
   std::vector<float> body_gap;  // per vertex: at least how far from the body it was (0: not known)
   std::vector<float> body_turn;  // per vertex: BodyField::turn of its cell (1 far from the body, -1 not known)
   std::vector<int> escapees;           // those vertices, in index order
+  // resolve_body_edges shared among threads: per edge, whether it would push; per vertex, whether
+  // an edge moved it in this pass (all 0 between passes), and those vertices.
+  std::vector<char> edge_pushes;
+  std::vector<unsigned char> edge_moved;
+  std::vector<int> edge_moved_list;
 
   // ---- self collision: two btDbvt trees, refitted at each gather, whose leaves are clusters of
   // nearby vertices and of nearby triangles (runs in Morton order); cluster c holds the items
@@ -344,8 +349,10 @@ void resolve_body(SolverArrays& s, const BodyCollider& collider, const std::vect
 // between them and hold the cloth from inside. Points at most twice the clearance apart, at most
 // kEdgePoints of them; edges far from the body or over a smooth part of it are passed over.
 constexpr int kEdgePoints = 32;
+// `whole`: [b, e) is every edge of the cloth, swept on this thread (a cloth of one block), and the
+// pass may share its work among the threads.
 void resolve_body_edges(SolverArrays& s, const BodyCollider& collider, const int* ei, const int* ej, int b, int e,
-                        double thickness, double clearance, double friction);
+                        double thickness, double clearance, double friction, bool whole = false);
 // Vertex-triangle pairs that can come within the thickness while the vertices move by `win` (from
 // x), with the last step's surprise_self times surprise_scale as slack.
 void gather_self_pairs(SolverArrays& s, double thickness, double surprise_scale);

@@ -596,7 +596,7 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
         // The edges after the vertices, half the thickness out: an edge over a smooth surface with
         // its ends at the thickness is clear of it, and is not touched.
         auto edges = [&](int b, int e) {
-          resolve_body_edges(s, *body, cs.e_i, cs.e_j, b, e, th, 0.5 * th, m.friction);
+          resolve_body_edges(s, *body, cs.e_i, cs.e_j, b, e, th, 0.5 * th, m.friction, e - b == cs.ne);
         };
         run_ranges(*cs.e_ranges, s.e_kinds, edges);
       }

@@ -297,16 +297,19 @@ void resolve_body_against(SolverArrays& s, int i, double th, double mu, const in
   s.x[i] = x;
 }
 
+namespace {
 // One point of a cloth edge, at t from its end i to j, against the body's triangles c: kept
 // `clearance` out of them on the side it came from, with friction, as resolve_body_against keeps a
 // vertex, the push shared by the two ends as their weights allow (a point between two masses).
-void resolve_edge_point(SolverArrays& s, int i, int j, double t, double clearance, double mu, const int* c,
+// Whether it was pushed; kDry: whether it would be, moving nothing.
+template <bool kDry>
+bool resolve_edge_point(SolverArrays& s, int i, int j, double t, double clearance, double mu, const int* c,
                         int cnt) {
   Vec3* X = s.x.data();
   const double wi = s.w[i], wj = s.w[j];
   const double ti = 1 - t;
   const double weff = ti * ti * wi + t * t * wj;
-  if (!(weff > 0)) return;
+  if (!(weff > 0)) return false;
   const Vec3 x0 = ti * X[i] + t * X[j];
   const Vec3 xp = ti * (s.moving[i] ? s.xp[i] : X[i]) + t * (s.moving[j] ? s.xp[j] : X[j]);
   Vec3 x = x0;
@@ -320,6 +323,7 @@ void resolve_edge_point(SolverArrays& s, int i, int j, double t, double clearanc
     if (dp >= 0 && dn < 0) {
       double tc;
       if (geom::segment_crosses_triangle(xp, x, T.a, T.b, T.c, tc)) {
+        if (kDry) return true;
         x += (clearance - dn) * T.n;
         push += clearance - dn;
         nrm = T.n;
@@ -338,11 +342,14 @@ void resolve_edge_point(SolverArrays& s, int i, int j, double t, double clearanc
     if (d2 >= clearance * clearance) continue;
     const Vec3 dir = d2 > 1e-24 ? Vec3(d / std::sqrt(d2)) : T.n;
     const Vec3 nx = cp.point + clearance * dir;
+    // A point pushed by nothing (it lies exactly the clearance out) moves nothing.
+    if (kDry && (nx - x).norm() > 0) return true;
     push += (nx - x).norm();
     nrm = dir;
     x = nx;
   }
-  if (!(push > 0)) return;
+  if (!(push > 0)) return false;
+  if (kDry) return true;
   if (mu > 0) {
     const Vec3 dx = x - xp;
     const Vec3 tan = dx - nrm * dx.dot(nrm);
@@ -352,67 +359,127 @@ void resolve_edge_point(SolverArrays& s, int i, int j, double t, double clearanc
   const Vec3 move = (x - x0) / weff;
   X[i] += (ti * wi) * move;
   X[j] += (t * wj) * move;
+  return true;
 }
 
-void resolve_body_edges(SolverArrays& s, const BodyCollider& collider, const int* ei, const int* ej, int b, int e,
-                        double th, double clearance, double mu) {
+// What resolve_body_edges asks of every edge, from the field and the cloth's thickness.
+struct EdgeReach {
+  EdgeReach(const BodyField& f, double th, double clearance)
+      : th(th),
+        clearance(clearance),
+        reach(clearance + f.cell_radius()),
+        fast2(f.cell() * f.cell()),
+        // Points no further apart than twice the clearance: a sharp ridge of the body between two of
+        // them, each kept the clearance from it, cannot come through the edge.
+        spacing(2 * clearance),
+        covered(f.turn_reach() - clearance),
+        listed(f.band() - f.cell_radius()) {}
+  double th, clearance, reach, fast2, spacing, covered, listed;
+};
+
+// The edge from i to j against the body (resolve_body_edges): whether a point of it was pushed;
+// kDry: whether one would be, moving nothing (the points after the first push are not looked at).
+template <bool kDry>
+bool body_edge(SolverArrays& s, const BodyCollider& collider, const EdgeReach& r, double mu, int i, int j,
+               std::vector<int>& tris) {
   const BodyField& f = *s.field;
-  const double reach = clearance + f.cell_radius();
-  const double fast2 = f.cell() * f.cell();
-  // Points no further apart than twice the clearance: a sharp ridge of the body between two of
-  // them, each kept the clearance from it, cannot come through the edge.
-  const double spacing = 2 * clearance;
-  const double covered = f.turn_reach() - clearance, listed = f.band() - f.cell_radius();
-  thread_local std::vector<int> tris;
-  for (int k = b; k < e; ++k) {
-    const int i = ei[k], j = ej[k];
-    const double len = (s.x[i] - s.x[j]).norm();
-    // A step gone non-finite is undone after it; a point of an edge of no length is its ends'.
-    if (!(len > 0 && len < std::numeric_limits<double>::infinity())) continue;
-    // Far from the body: a body point within the clearance of a point of a segment of length l is
-    // within sqrt(l^2 / 4 + clearance^2) of one of its ends. The ends' gaps, then the middle's. An
-    // end that did not move this substep was not looked up: taken as near and sharp, so that the
-    // step is the same whatever its arrays held before (a session reopened, a rebuild).
-    const bool mi = s.moving[i], mj = s.moving[j];
-    const double gi = mi ? s.body_gap[i] : 0.0, gj = mj ? s.body_gap[j] : 0.0;
-    if (std::min(gi, gj) * std::min(gi, gj) >= 0.25 * len * len + clearance * clearance) continue;
-    // Over a surface that turns by less than phi, ends kept the thickness from it leave the edge's
-    // middle about th - len phi / 4 from it, beyond the clearance. How the surface turns near the
-    // ends (and below, the middle), from their cells: together they list every triangle within the
-    // clearance of the edge when it is no longer than twice (four times) turn_reach - clearance.
-    const double phi = 4 * (th - clearance) / len, cos_phi = phi >= M_PI ? -1.0 : std::cos(phi);
-    const float ends_turn = std::min(mi ? s.body_turn[i] : -1.0f, mj ? s.body_turn[j] : -1.0f);
-    if (len <= 2 * covered && ends_turn >= cos_phi) continue;
-    double gm;
-    const std::int64_t mc = f.cell_of(0.5 * (s.x[i] + s.x[j]), gm);
-    const double g = std::min({gi, gj, gm});
-    if (g * g >= 0.0625 * len * len + clearance * clearance) continue;
-    if (len <= 4 * covered && std::min(ends_turn, mc < 0 ? 1.0f : f.turn(mc)) >= cos_phi) continue;
-    const int n = static_cast<int>(std::clamp(len / spacing, 1.0, double(kEdgePoints)));
-    for (int q = 1; q <= n; ++q) {
-      const double t = double(q) / (n + 1);
-      const Vec3 x = (1 - t) * s.x[i] + t * s.x[j];
-      const Vec3 xp = (1 - t) * (mi ? s.xp[i] : s.x[i]) + t * (mj ? s.xp[j] : s.x[j]);
-      if ((x - xp).squaredNorm() > fast2) {
-        Box3 bx(xp.cwiseMin(x), xp.cwiseMax(x));
-        bx.min() -= Vec3::Constant(1.5 * clearance);
-        bx.max() += Vec3::Constant(1.5 * clearance);
-        if (!bx.intersects(s.body_bounds)) continue;
-        collider.triangles_in_box(bx, tris);
-        if (!tris.empty()) resolve_edge_point(s, i, j, t, clearance, mu, tris.data(), static_cast<int>(tris.size()));
-        continue;
+  const double clearance = r.clearance;
+  const double len = (s.x[i] - s.x[j]).norm();
+  // A step gone non-finite is undone after it; a point of an edge of no length is its ends'.
+  if (!(len > 0 && len < std::numeric_limits<double>::infinity())) return false;
+  // Far from the body: a body point within the clearance of a point of a segment of length l is
+  // within sqrt(l^2 / 4 + clearance^2) of one of its ends. The ends' gaps, then the middle's. An
+  // end that did not move this substep was not looked up: taken as near and sharp, so that the
+  // step is the same whatever its arrays held before (a session reopened, a rebuild).
+  const bool mi = s.moving[i], mj = s.moving[j];
+  const double gi = mi ? s.body_gap[i] : 0.0, gj = mj ? s.body_gap[j] : 0.0;
+  if (std::min(gi, gj) * std::min(gi, gj) >= 0.25 * len * len + clearance * clearance) return false;
+  // Over a surface that turns by less than phi, ends kept the thickness from it leave the edge's
+  // middle about th - len phi / 4 from it, beyond the clearance. How the surface turns near the
+  // ends (and below, the middle), from their cells: together they list every triangle within the
+  // clearance of the edge when it is no longer than twice (four times) turn_reach - clearance.
+  // A longer edge is not passed over so, and needs no cosine.
+  const bool within2 = len <= 2 * r.covered, within4 = len <= 4 * r.covered;
+  double cos_phi = -1;
+  if (within4) {
+    const double phi = 4 * (r.th - clearance) / len;
+    cos_phi = phi >= M_PI ? -1.0 : std::cos(phi);
+  }
+  const float ends_turn = std::min(mi ? s.body_turn[i] : -1.0f, mj ? s.body_turn[j] : -1.0f);
+  if (within2 && ends_turn >= cos_phi) return false;
+  double gm;
+  const std::int64_t mc = f.cell_of(0.5 * (s.x[i] + s.x[j]), gm);
+  const double g = std::min({gi, gj, gm});
+  if (g * g >= 0.0625 * len * len + clearance * clearance) return false;
+  if (within4 && std::min(ends_turn, mc < 0 ? 1.0f : f.turn(mc)) >= cos_phi) return false;
+  const int n = static_cast<int>(std::clamp(len / r.spacing, 1.0, double(kEdgePoints)));
+  bool pushed = false;
+  for (int q = 1; q <= n; ++q) {
+    const double t = double(q) / (n + 1);
+    const Vec3 x = (1 - t) * s.x[i] + t * s.x[j];
+    const Vec3 xp = (1 - t) * (mi ? s.xp[i] : s.x[i]) + t * (mj ? s.xp[j] : s.x[j]);
+    if ((x - xp).squaredNorm() > r.fast2) {
+      Box3 bx(xp.cwiseMin(x), xp.cwiseMax(x));
+      bx.min() -= Vec3::Constant(1.5 * clearance);
+      bx.max() += Vec3::Constant(1.5 * clearance);
+      if (!bx.intersects(s.body_bounds)) continue;
+      collider.triangles_in_box(bx, tris);
+      if (!tris.empty() &&
+          resolve_edge_point<kDry>(s, i, j, t, clearance, mu, tris.data(), static_cast<int>(tris.size()))) {
+        if (kDry) return true;
+        pushed = true;
       }
-      // The middle's cell lists what is within the clearance of a point near the middle (allowing
-      // for the pushes of the points before it); further out, the point's own cell.
-      const double from_middle = std::abs(t - 0.5) * len;
-      const bool near_middle = mc >= 0 && from_middle + 2 * clearance <= listed;
-      const std::int64_t c = near_middle ? mc : f.cell_of(x);
-      if (c < 0 || f.distance(c) > reach + (near_middle ? from_middle : 0.0)) continue;
-      int count = 0;
-      const int* list = f.triangles(c, count);
-      resolve_edge_point(s, i, j, t, clearance, mu, list, count);
+      continue;
+    }
+    // The middle's cell lists what is within the clearance of a point near the middle (allowing
+    // for the pushes of the points before it); further out, the point's own cell.
+    const double from_middle = std::abs(t - 0.5) * len;
+    const bool near_middle = mc >= 0 && from_middle + 2 * clearance <= r.listed;
+    const std::int64_t c = near_middle ? mc : f.cell_of(x);
+    if (c < 0 || f.distance(c) > r.reach + (near_middle ? from_middle : 0.0)) continue;
+    int count = 0;
+    const int* list = f.triangles(c, count);
+    if (resolve_edge_point<kDry>(s, i, j, t, clearance, mu, list, count)) {
+      if (kDry) return true;
+      pushed = true;
     }
   }
+  return pushed;
+}
+}  // namespace
+
+void resolve_body_edges(SolverArrays& s, const BodyCollider& collider, const int* ei, const int* ej, int b, int e,
+                        double th, double clearance, double mu, bool whole) {
+  const EdgeReach r(*s.field, th, clearance);
+  thread_local std::vector<int> tris;
+  // A cloth of one block sweeps all its edges in one order, on one thread. Most edges are passed
+  // over or their points not pushed, and finding that is most of the pass: the threads find it
+  // for all the edges, without moving anything, and the sweep then takes in order only the edges
+  // that push and those whose ends an edge before them moved. The same as the plain sweep, bit for
+  // bit: an edge passed over read only its ends, as the sweep would have found them.
+  constexpr int kShareFrom = 1024;
+  if (!whole || e - b < kShareFrom || parallel::thread_count() < 2) {
+    for (int k = b; k < e; ++k) body_edge<false>(s, collider, r, mu, ei[k], ej[k], tris);
+    return;
+  }
+  s.edge_pushes.resize(e - b);
+  char* pushes = s.edge_pushes.data();
+  parallel::for_range(e - b, 256, [&](int lo, int hi) {
+    thread_local std::vector<int> mine;
+    for (int k = lo; k < hi; ++k) pushes[k] = body_edge<true>(s, collider, r, mu, ei[b + k], ej[b + k], mine);
+  });
+  s.edge_moved.resize(s.n, 0);
+  std::vector<int>& moved = s.edge_moved_list;
+  moved.clear();
+  for (int k = b; k < e; ++k) {
+    const int i = ei[k], j = ej[k];
+    if (!pushes[k - b] && !s.edge_moved[i] && !s.edge_moved[j]) continue;
+    if (body_edge<false>(s, collider, r, mu, i, j, tris)) {
+      for (int v : {i, j})
+        if (!s.edge_moved[v]) s.edge_moved[v] = 1, moved.push_back(v);
+    }
+  }
+  for (int v : moved) s.edge_moved[v] = 0;
 }
 
 void prepare_body_field(SolverArrays& s, double th) {

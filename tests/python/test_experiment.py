@@ -126,3 +126,9 @@ def test_bad_settings_say_what_to_change():
     with pytest.raises(kiji.InputError, match="armhole"):
         experiment.run_experiment(experiment.Settings(armhole=0.7, out=None, picture=None, stages=None,
                                                       verbose=False))
+    with pytest.raises(kiji.InputError, match="neck_forward"):
+        experiment.run_experiment(experiment.Settings(neck_forward=0.65, out=None, picture=None, stages=None,
+                                                      verbose=False))
+    with pytest.raises(kiji.InputError, match="armhole"):
+        experiment.run_experiment(experiment.Settings(neck_forward=0.25, out=None, picture=None, stages=None,
+                                                      verbose=False))

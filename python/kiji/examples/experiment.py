@@ -1,9 +1,10 @@
 """The 2006 paper's experiment (its section 5, figures 8-9): a tunic made in a Kiji design session.
 
 1. Drape: a rectangle of cotton is laid over the default body and falls on it under gravity.
-2. Cut: an opening for the head is cut around the crown and the cloth over the head is removed; the
-   cloth falls through the opening onto the shoulders, a front panel and a back panel, held flat by
-   their hems' corners (four pinches) as they fall.
+2. Cut: an opening for the head is cut around the crown, set a little towards the front as a tunic's
+   pattern sets it, and the cloth over the head is removed; the cloth falls through the opening onto
+   the shoulders, a front panel and a back panel, held flat by their hems' corners (four pinches) as
+   they fall.
 3. Sew: the front's sides are sewn to the back's, from the hem up to the armholes, pair of border
    vertices by pair as a tailor sews a seam, the first pairs carried together by hand (pinch): one
    piece, a tunic with a neck opening and two armholes.
@@ -50,11 +51,12 @@ class Settings:
     length: float = 1.44          # m, front hem over the shoulders to back hem (pattern y -> world -z)
     spacing: float = 0.012        # m between vertices
     material: str = "cotton"
-    drape_seconds: float = 2.8    # the cloth falls onto the head (1.8-3.5 s all make the tunic: docs/benchmarks.md)
+    drape_seconds: float = 2.8    # the cloth falls onto the head (1.8-3.5 s: 15 of those 18 lengths pass, docs/benchmarks.md)
     fall_seconds: float = 1.2     # after the head opening is cut, it falls onto the shoulders
     settle_seconds: float = 0.8   # after sewing
     neck: float = 0.12            # m, half the width of the head opening (pattern x)
     neck_depth: float = 0.11      # m, half its length (pattern y, front to back)
+    neck_forward: float = 0.025   # m the head opening is set towards the front hem from the pattern's middle
     armhole: float = 0.30         # m of the pattern from the shoulder line down to the armhole's end
     seam_start: float = 0.33      # where up the side seam the sewing starts, from the hem (0) to the armhole (1)
     text: str = "KIJI"
@@ -249,9 +251,12 @@ def _check(st: Settings) -> None:
     if not 0 < st.armhole < st.length / 2 or _last_seam_row(st) < 2:
         raise kiji.InputError("experiment: no side is left to sew below the armholes: make armhole smaller "
                               "than half the cloth's length")
-    if st.armhole <= st.neck_depth:
+    if not abs(st.neck_forward) < st.length / 2 - st.neck_depth - 2 * st.spacing:
+        raise kiji.InputError("experiment: neck_forward sets the head opening off the cloth: keep it within "
+                              "half the cloth's length less neck_depth")
+    if st.armhole <= st.neck_depth + abs(st.neck_forward):
         raise kiji.InputError("experiment: the armholes would reach above the head opening: make armhole "
-                              "larger than neck_depth")
+                              "larger than neck_depth and neck_forward together")
     if not 0 <= st.seam_start <= 1:
         raise kiji.InputError("experiment: seam_start is a share of the side seam, from 0 (hem) to 1 (armhole)")
     _letter_strokes(st.text, st.letter_height)  # every letter in the font
@@ -295,7 +300,10 @@ def run_experiment(settings: Settings = Settings()) -> Result:
     #    head. The knife goes straight in the pattern between the stroke's points: a walk over the
     #    surface stops where a fold of the draped crown turns it back, as at a crease on purpose.
     s.simulating = False  # nothing falls while the scissors work
-    centre_u, centre_v = st.width / 2, st.length / 2
+    # The opening is set a little forward of the middle, as a tunic's pattern sets it: the front panel
+    # falls over the chest and hangs lower at its sides than the back unless it is that much shorter,
+    # and the side seams then lift the front's sides into a fold across the hips.
+    centre_u, centre_v = st.width / 2, st.length / 2 - st.neck_forward
     scale = g.pattern_scale
 
     def around_head(start: float, stop: float) -> np.ndarray:
@@ -519,6 +527,8 @@ def main(argv: Optional[list[str]] = None) -> int:
     ap.add_argument("--settle-seconds", type=float, default=d.settle_seconds)
     ap.add_argument("--neck", type=float, default=d.neck, help="half width of the head opening, m")
     ap.add_argument("--neck-depth", type=float, default=d.neck_depth, help="half length of the head opening, m")
+    ap.add_argument("--neck-forward", type=float, default=d.neck_forward,
+                    help="how far the head opening is set towards the front hem, m")
     ap.add_argument("--armhole", type=float, default=d.armhole,
                     help="pattern length from the shoulder line down to the end of the armhole, m")
     ap.add_argument("--text", default=d.text, help=f"letters to paint (of {''.join(sorted(FONT))} and space)")
@@ -532,6 +542,7 @@ def main(argv: Optional[list[str]] = None) -> int:
     settings = Settings(width=a.width, length=a.length, spacing=a.spacing, material=a.material,
                         drape_seconds=a.drape_seconds, fall_seconds=a.fall_seconds,
                         settle_seconds=a.settle_seconds, neck=a.neck, neck_depth=a.neck_depth,
+                        neck_forward=a.neck_forward,
                         armhole=a.armhole, text=a.text, texture=a.texture, substeps=a.substeps, out=a.out,
                         picture=a.picture, stages=a.stages, verbose=not a.quiet)
     try:

@@ -427,6 +427,40 @@ TEST(Xpbd, ClothDroppedAcrossAThinWallHangsOverItsTop) {
   EXPECT_LT(solver.measure(g).max_strain, 0.1);
 }
 
+TEST(Xpbd, AVertexBesideARidgeIsKeptOffItWhereItIsNotThrownOverIt) {
+  // A ridge, as an ear's rim or a low-poly shoulder makes: a top face (y = 1, x <= 0.1) and a side
+  // face (x = 0.1, y <= 1). A vertex 3 mm off the side face has moved from just above the top face's
+  // plane to just below it: beside the top face, outside the body. Taken as inside and put the
+  // thickness along the top face's normal, it went 5.8 mm over the ridge, and on a garment its edges
+  // pulled it back in the next substep, every substep (the bench's settled garment at 51 % strain).
+  auto face = [](const Vec3& a, const Vec3& b, const Vec3& c) {
+    return SolverArrays::BodyTri{a, b, c, (b - a).cross(c - a).normalized()};
+  };
+  SolverArrays s;
+  s.body_tris = {face({0.1, 1, -0.3}, {-0.3, 1, 0}, {0.1, 1, 0.3}),   // top, facing +y
+                 face({0.1, 1, -0.3}, {0.1, 1, 0.3}, {0.1, 0.6, 0})};  // side, facing +x
+  for (const auto& t : s.body_tris) {
+    Box3 b;
+    for (const Vec3& p : {t.a, t.b, t.c}) b.extend(p);
+    s.body_boxes.push_back(b);
+  }
+  ASSERT_GT(s.body_tris[0].n.y(), 0.99);
+  ASSERT_GT(s.body_tris[1].n.x(), 0.99);
+  s.up = Vec3(0, 1, 0);
+  const double th = 0.004;
+  // Vertex 0 beside the top face; vertex 1 went down through it, into the body.
+  s.xp = {Vec3(0.103, 1.0005, 0), Vec3(0.05, 1.0005, 0)};
+  s.x = {Vec3(0.103, 0.9982, 0), Vec3(0.05, 0.9982, 0)};
+  s.held_up.assign(2, 0);
+  const int both[] = {0, 1};
+  for (int i : {0, 1}) solver_detail::resolve_body_against(s, i, th, 0.0, both, 2);
+  EXPECT_LT(s.x[0].y(), 1.0) << "beside the side face it stays there, not over the ridge: (" << s.x[0].transpose() << ")";
+  EXPECT_GE(s.x[0].x() - 0.1, th - 1e-9) << "the thickness off the side face";
+  EXPECT_LT((s.x[0] - Vec3(0.103, 0.9982, 0)).norm(), 0.5 * th) << "moved only to the thickness";
+  EXPECT_NEAR(s.x[1].y(), 1.0 + th, 1e-9) << "through the top face: back out above it";
+  EXPECT_NEAR(s.x[1].x(), 0.05, 1e-12);
+}
+
 TEST(Xpbd, ClothThrownAtAFrictionlessFloorKeepsItsSpeedAlongIt) {
   // 10 m/s down and 6 m/s along: in its first substep the cloth goes through the floor's plane
   // (1.7 cm a substep, from 1 cm above it). It must come back above the floor and slide on at

@@ -280,7 +280,12 @@ void resolve_body_against(SolverArrays& s, int i, double th, double mu, const in
       near_up = near_up || (dn > 0 && d.dot(s.up) > 0);
       continue;
     }
-    const Vec3 dir = (dn > 0 && d2 > 1e-24) ? Vec3(d / std::sqrt(d2)) : T.n;
+    // Behind the plane, nearest the triangle's border and come from in front of the plane this
+    // substep (it did not cross the triangle): beside it, over a ridge such as an ear's rim, not
+    // inside. It goes the thickness away from the border; along the normal it went over the ridge,
+    // and its edges pulled it back, every substep.
+    const bool beside = dn <= 0 && dp > 0 && (cp.b0 <= 0 || cp.b1 <= 0 || cp.b2 <= 0);
+    const Vec3 dir = ((dn > 0 || beside) && d2 > 1e-24) ? Vec3(d / std::sqrt(d2)) : T.n;
     const Vec3 nx = cp.point + th * dir;
     push += (nx - x).norm();
     nrm = dir;

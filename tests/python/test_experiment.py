@@ -21,8 +21,8 @@ def test_it_is_made_by_the_papers_operations(tunic):
     tools = [j.tool for j in r.session.journal]
     # The head opening: one closed stroke of the knife, along the drawn ellipse.
     assert tools[0] == "cut" and r.session.journal[0].params["mode"] == "line"
-    # The needle, and the hands that hold the hems apart as the panels fall and carry each seam's
-    # first pair together.
+    # The needle, and the hands that hold the hems and the front's neckline apart as the panels fall
+    # and carry each seam's first pair together.
     sewn = tools[1:tools.index("paint")]
     assert "sew" in sewn and set(sewn) <= {"sew", "pinch"}
     assert set(tools[tools.index("paint"):]) == {"paint"}

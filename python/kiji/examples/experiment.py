@@ -3,8 +3,8 @@
 1. Drape: a rectangle of cotton is laid over the default body and falls on it under gravity.
 2. Cut: an opening for the head is cut around the crown, set a little towards the front as a tunic's
    pattern sets it, and the cloth over the head is removed; the cloth falls through the opening onto
-   the shoulders, a front panel and a back panel, held flat by their hems' corners (four pinches) as
-   they fall.
+   the shoulders, a front panel and a back panel, held flat by their hems' corners and the front's
+   neckline (six pinches) as they fall.
 3. Sew: the front's sides are sewn to the back's, from the hem up to the armholes, pair of border
    vertices by pair as a tailor sews a seam, the first pairs carried together by hand (pinch): one
    piece, a tunic with a neck opening and two armholes.
@@ -51,7 +51,7 @@ class Settings:
     length: float = 1.44          # m, front hem over the shoulders to back hem (pattern y -> world -z)
     spacing: float = 0.012        # m between vertices
     material: str = "cotton"
-    drape_seconds: float = 2.8    # the cloth falls onto the head (1.8-3.5 s: 15 of those 18 lengths pass, docs/benchmarks.md)
+    drape_seconds: float = 2.8    # the cloth falls onto the head (1.8-3.5 s all make the tunic: docs/benchmarks.md)
     fall_seconds: float = 1.2     # after the head opening is cut, it falls onto the shoulders
     settle_seconds: float = 0.8   # after sewing
     neck: float = 0.12            # m, half the width of the head opening (pattern x)
@@ -184,17 +184,28 @@ def _fall_with_hems_held_apart(s: kiji.Session, g: kiji.Garment, pattern: "_Patt
     the panel lands, where it would otherwise be sewn into the side seam. Four hands (pinches) carry
     the corners out to the cloth's width over the first quarter of the fall; they go down with the
     cloth (each pulls a little below its corner, never holding it up) and let go for the last
-    quarter."""
+    quarter. Two more draw the front's neckline apart by its ends, a few millimetres a frame: a fold
+    the drape left over the head can run from the neckline down the chest, short of the hem, where
+    the painted letters go."""
     nx, ny = pattern.nx, pattern.ny
     corners = [pattern.id[(column, row)] for row in (0, ny - 1) for column in (0, nx - 1)]
-    starts = _positions_of(g, corners)
+    neck = np.array(min(g.border_loops(), key=len))  # the head opening, the cloth's outline being longer
+    positions = g.positions
+    front = neck[positions[neck, 2] > body_axis_z(s.body)]
+    ends = []
+    if len(front) >= 2:
+        ids = g.vertex_ids
+        ends = [int(ids[front[np.argmin(positions[front, 0])]]), int(ids[front[np.argmax(positions[front, 0])]])]
+    starts = _positions_of(g, corners + ends)
     across = 0.95 * 0.5 * st.width * np.array([-1.0, 1.0, -1.0, 1.0])
     steps = max(4, round(st.fall_seconds * s.frame_rate))
 
     def goals(k: int) -> list:
         out = min(1.0, k / (steps // 4))
-        return [np.array([start[0] + out * (x - start[0]), now[1] - 0.004, now[2]])
-                for start, x, now in zip(starts, across, _positions_of(g, corners))]
+        now = _positions_of(g, corners + ends)
+        return ([np.array([start[0] + out * (x - start[0]), p[1] - 0.004, p[2]])
+                 for start, x, p in zip(starts, across, now)] +
+                [p + np.array([side * 0.003, 0.0, 0.0]) for p, side in zip(now[4:], (-1.0, 1.0))])
 
     _hands(s, starts, goals, steps - steps // 4)
     s.simulate((steps // 4) / s.frame_rate)

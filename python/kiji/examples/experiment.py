@@ -178,7 +178,7 @@ def _hands(s: kiji.Session, starts, goals, frames: int, **pinch) -> None:
                 s.update(kiji.ToolEvent("move", goal, time=t), user=user)
 
 
-def _fall_with_hems_held_apart(s: kiji.Session, g: kiji.Garment, pattern: "_Pattern", st: Settings) -> None:
+def _fall_held_apart(s: kiji.Session, g: kiji.Garment, pattern: "_Pattern", st: Settings) -> None:
     """The panels fall onto the shoulders with the corners of each hem held apart, as a tailor holds a
     panel by its corners so that it hangs flat: a fold the drape left in a panel is drawn out before
     the panel lands, where it would otherwise be sewn into the side seam. Four hands (pinches) carry
@@ -204,7 +204,7 @@ def _fall_with_hems_held_apart(s: kiji.Session, g: kiji.Garment, pattern: "_Patt
         out = min(1.0, k / (steps // 4))
         now = _positions_of(g, corners + ends)
         return ([np.array([start[0] + out * (x - start[0]), p[1] - 0.004, p[2]])
-                 for start, x, p in zip(starts, across, now)] +
+                 for start, x, p in zip(starts[:4], across, now[:4])] +
                 [p + np.array([side * 0.003, 0.0, 0.0]) for p, side in zip(now[4:], (-1.0, 1.0))])
 
     _hands(s, starts, goals, steps - steps // 4)
@@ -330,7 +330,7 @@ def run_experiment(settings: Settings = Settings()) -> Result:
     rows = {int(v): i for i, v in enumerate(g.vertex_ids)}
     g.remove_piece(int(np.nonzero((g.faces == rows[crown]).any(axis=1))[0][0]))
     s.simulating = True
-    _fall_with_hems_held_apart(s, g, pattern, st)
+    _fall_held_apart(s, g, pattern, st)
     _say(st, f"  2. cut the head opening and took away the cloth over the head: it fell onto the shoulders")
     stage_done("cut")
 

@@ -5,9 +5,12 @@
 //   solver_bench drape [n [print_every [self_collision [substeps]]]]
 //   solver_bench hash [n [steps]]   a landing's end state, hashed (compare KIJI_THREADS settings)
 //   solver_bench prepare [n [reps]] building a fresh solver's arrays for a cloth landed on the body 1 s
+//   solver_bench edit [n [reps]]    a slit cut in that cloth, reps times, each at another place: the
+//                                   rebuild the next step makes (StepReport::ms.rebuild)
 #include "kiji/body.h"
 #include "kiji/pattern.h"
 #include "kiji/solver.h"
+#include "kiji/topology.h"
 
 #include <algorithm>
 #include <chrono>
@@ -92,6 +95,22 @@ int main(int argc, char** argv) {
       const auto t0 = Clock::now();
       solver.prepare(g);
       std::printf("%d vertices: prepare %.2f ms\n", n * n, std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    }
+    return 0;
+  }
+  if (argc > 1 && std::strcmp(argv[1], "edit") == 0) {  // solver_bench edit [n [reps]]
+    const int n = argc > 2 ? std::atoi(argv[2]) : 141, reps = argc > 3 ? std::atoi(argv[3]) : 8;
+    Garment g = cloth(n, body.bounds());
+    Solver solver{SolverParams{}};
+    solver.set_body(&body);
+    for (int i = 0; i < 60; ++i) solver.step(g, 1.0 / 60);
+    for (int r = 0; r < reps; ++r) {
+      // A slit of a tenth of the cloth across a row, each further along the cloth's diagonal.
+      const int row = n / 5 + (r * 3 * n / 5) / std::max(1, reps), col = n / 5 + (r * n / 2) / std::max(1, reps);
+      cut_along(g, edge_path(g, Vertex(row * n + col), Vertex(row * n + col + n / 10)));
+      solver.step(g, 1.0 / 60);
+      std::printf("%zu vertices: rebuild %.2f ms (step %.1f ms)\n", g.mesh().number_of_vertices(),
+                  solver.last_step().ms.rebuild, solver.last_step().ms.total);
     }
     return 0;
   }

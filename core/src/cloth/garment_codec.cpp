@@ -33,6 +33,7 @@ struct GarmentForm {
     StepRecord record;
     std::vector<Vec3> built_at;
     std::vector<std::vector<std::uint32_t>> anchors;  // level by level
+    std::vector<std::uint8_t> built_alive;             // all 0 where the record does not say
   } step;
 };
 
@@ -159,6 +160,12 @@ void fields(A& a, Field<A, GarmentForm>& g, Field<A, Texture>& texture, const De
           a.require(v < nv, "a long-range anchor is not a vertex of the garment");
         });
       });
+    // Which vertices the record's build had, one byte each (records written before this part end
+    // here; a solver then takes its order from where the cloth lies, not from the record's).
+    if (a.more()) {
+      a.raw(step.built_alive, nv);
+      for (std::uint8_t b : step.built_alive) a.require(b <= 1, "whether a vertex was built is not 0 or 1");
+    }
   }
   a.end(" after the garment");
 }
@@ -177,6 +184,9 @@ std::string encode_garment(const Garment& g) {
     form.step.built_at = *r->built_at;
     if (r->anchors)
       for (const std::vector<int>& level : *r->anchors) form.step.anchors.emplace_back(level.begin(), level.end());
+    form.step.built_alive.assign(nv, 0);
+    if (r->built_alive && r->built_alive->size() == r->built_at->size())
+      std::copy(r->built_alive->begin(), r->built_alive->end(), form.step.built_alive.begin());
     StepRecord& st = form.step.record;
     if (r->built_at->size() < nv) {
       form.step.built_at.resize(nv, Vec3::Zero());
@@ -224,6 +234,9 @@ Garment decode_garment(std::string_view bytes, const DecodeLimits& limits) {
       for (const auto& level : form.step.anchors) levels->emplace_back(level.begin(), level.end());
       form.step.record.anchors = std::move(levels);
     }
+    const auto& alive = form.step.built_alive;
+    if (std::find(alive.begin(), alive.end(), 1) != alive.end())
+      form.step.record.built_alive = std::make_shared<const std::vector<unsigned char>>(alive.begin(), alive.end());
     g.set_step_record(std::make_shared<const StepRecord>(std::move(form.step.record)));
   }
   return g;

@@ -36,6 +36,7 @@ std::size_t record_bytes(const Garment& g, std::vector<const void*>& counted) {
   if (const auto& r = g.step_record(); first(r.get())) {
     bytes += bytes_of(*r);
     if (first(r->built_at.get())) bytes += r->built_at->size() * sizeof(Vec3);
+    if (first(r->built_alive.get())) bytes += r->built_alive->size();
     if (first(r->anchors.get()))
       for (const auto& level : *r->anchors) bytes += level.size() * sizeof(int);
   }

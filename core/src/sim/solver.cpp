@@ -602,6 +602,56 @@ void build_self_exclusions(SolverArrays& s) {
   }
 }
 
+// Where the vertices lay for the build before an edit, kept for those it had, so that the order,
+// the blocks and the collision clusters change only around the edit (a sleeping block sleeps on).
+// A vertex the edit made lies at the mean of its neighbours' places, round by round out from the
+// kept ones; one with none (a new piece) where it lies now.
+std::shared_ptr<const std::vector<Vec3>> kept_places(const Mesh& m, std::size_t n, const std::vector<Vec3>& was,
+                                                     const std::vector<unsigned char>& was_alive) {
+  auto at = std::make_shared<std::vector<Vec3>>(n, Vec3::Zero());
+  std::vector<char> known(n, 0);
+  std::vector<int> fresh, left;
+  for (Vertex v : m.vertices()) {
+    const std::size_t i = v.idx();
+    if (i < was.size() && was_alive[i]) {
+      (*at)[i] = was[i];
+      known[i] = 1;
+    } else {
+      fresh.push_back(static_cast<int>(i));
+    }
+  }
+  std::vector<std::pair<int, Vec3>> placed;
+  while (!fresh.empty()) {
+    placed.clear();
+    left.clear();
+    for (int i : fresh) {
+      const Vertex v = vtx(i);
+      Vec3 sum = Vec3::Zero();
+      int count = 0;
+      if (m.halfedge(v) != Mesh::null_halfedge())
+        for (Vertex u : CGAL::vertices_around_target(m.halfedge(v), m))
+          if (known[u.idx()]) {
+            sum += (*at)[u.idx()];
+            ++count;
+          }
+      if (count > 0)
+        placed.emplace_back(i, sum / count);
+      else
+        left.push_back(i);
+    }
+    if (placed.empty()) {
+      for (int i : left) (*at)[i] = to_vec(m.point(vtx(i)));
+      break;
+    }
+    for (const auto& [i, p] : placed) {
+      (*at)[i] = p;
+      known[i] = 1;
+    }
+    fresh.swap(left);
+  }
+  return at;
+}
+
 double heron(double a, double b, double c) {
   const double s = 0.5 * (a + b + c);
   const double q = s * (s - a) * (s - b) * (s - c);
@@ -632,6 +682,7 @@ void rebuild(SolverArrays& s, const Garment& g) {
   // built its own, and take up its state, so that this one steps on as that one would have.
   s.mesh_key = mesh_key(g);
   s.carried = g.step_record();
+  const std::shared_ptr<const StepRecord> before = s.carried;
   // Its long-range anchors, even where the record is of the mesh before an edit (build_long_range).
   const std::shared_ptr<const std::vector<std::vector<int>>> before_anchors = s.carried ? s.carried->anchors : nullptr;
   if (s.carried && (s.carried->mesh != s.mesh_key || !s.carried->built_at || s.carried->built_at->size() != n ||
@@ -642,14 +693,18 @@ void rebuild(SolverArrays& s, const Garment& g) {
     s.surprise = s.carried->surprise;
     s.surprise_self = s.carried->surprise_self;
     s.held_up = s.carried->held_up;
+  } else if (before && before->built_at && before->built_alive &&
+             before->built_alive->size() == before->built_at->size() && before->built_at->size() <= n) {
+    s.built_at = kept_places(m, n, *before->built_at, *before->built_alive);
   } else {
     auto at = std::make_shared<std::vector<Vec3>>(n, Vec3::Zero());
     for (Vertex v : m.vertices()) (*at)[v.idx()] = to_vec(m.point(v));
     s.built_at = std::move(at);
   }
+  s.built_alive = std::make_shared<const std::vector<unsigned char>>(s.alive);
   const std::vector<Vec3>& built_at = *s.built_at;
 
-  // Spatial order of the vertices (for collision clusters): Morton code of where they lie.
+  // Spatial order of the vertices (for collision clusters): Morton code of where they lay for it.
   Box3 box;
   for (Vertex v : m.vertices()) box.extend(built_at[v.idx()]);
   std::vector<std::pair<std::uint32_t, int>> keyed;

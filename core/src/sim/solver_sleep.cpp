@@ -308,6 +308,7 @@ void write_step_record(SolverArrays& s, Garment& g) {
   StepRecord* r = s.written.get();
   r->mesh = s.mesh_key;
   r->built_at = s.built_at;
+  r->built_alive = s.built_alive;
   r->anchors = s.anchors;
   r->surprise = s.surprise;
   r->surprise_self = s.surprise_self;

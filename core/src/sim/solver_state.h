@@ -34,8 +34,11 @@ struct SleepRecord {
 struct StepRecord {
   std::uint64_t mesh = 0;  // the mesh's vertices and faces, hashed (mesh_key): whose record it is
   // Where the vertices lay when the arrays were built: their order, and from it the blocks, the
-  // constraints' order, the long-range limits and the collision clusters. Shared until a rebuild.
+  // constraints' order, the long-range limits and the collision clusters. Kept through an edit for
+  // the vertices it kept. Shared until a rebuild.
   std::shared_ptr<const std::vector<Vec3>> built_at;
+  // Which vertices the mesh had then: a rebuild after an edit keeps where they lay (the order).
+  std::shared_ptr<const std::vector<unsigned char>> built_alive;
   // The long-range anchors, level by level (S = 2, 4 ... 64), in the order the solver took them: a
   // rebuild after an edit keeps them where it can. Shared until a rebuild.
   std::shared_ptr<const std::vector<std::vector<int>>> anchors;
@@ -70,6 +73,7 @@ struct SolverArrays {
   bool built = false;
   std::uint64_t mesh_key = 0;                         // solver_detail::mesh_key at the last rebuild
   std::shared_ptr<const std::vector<Vec3>> built_at;  // where the vertices lay for it (StepRecord)
+  std::shared_ptr<const std::vector<unsigned char>> built_alive;  // which vertices it had (StepRecord)
   std::shared_ptr<const std::vector<std::vector<int>>> anchors;  // its long-range anchors (StepRecord)
   std::shared_ptr<const StepRecord> carried;          // the record it took up, until its sleep is too
   std::shared_ptr<StepRecord> written;                // the record it gave the garment last

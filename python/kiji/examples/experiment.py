@@ -51,7 +51,7 @@ class Settings:
     length: float = 1.44          # m, front hem over the shoulders to back hem (pattern y -> world -z)
     spacing: float = 0.012        # m between vertices
     material: str = "cotton"
-    drape_seconds: float = 2.8    # the cloth falls onto the head (1.8-3.5 s all make the tunic: docs/benchmarks.md)
+    drape_seconds: float = 2.8    # the cloth falls onto the head (17 of 18 lengths 1.8-3.5 s: docs/benchmarks.md)
     fall_seconds: float = 1.2     # after the head opening is cut, it falls onto the shoulders
     settle_seconds: float = 0.8   # after sewing
     neck: float = 0.12            # m, half the width of the head opening (pattern x)

@@ -186,8 +186,8 @@ void colour(std::size_t count, std::size_t n, GetVerts verts, std::vector<int>& 
     std::array<int, K> vs = verts(c);
     std::uint64_t mask = 0;
     for (int k = 0; k < K; ++k) mask |= used[vs[k]];
-    int colour_id = 0;
-    while (colour_id < 63 && (mask >> colour_id) & 1u) ++colour_id;  // 63 = overflow bucket
+    const std::uint64_t free = ~mask & ~(std::uint64_t(1) << 63);
+    const int colour_id = free ? __builtin_ctzll(free) : 63;  // 63 = overflow bucket
     col[c] = colour_id;
     if (colour_id < 63)
       for (int k = 0; k < K; ++k) used[vs[k]] |= (std::uint64_t(1) << colour_id);
@@ -258,9 +258,10 @@ void schedule(std::size_t count, std::size_t n, const std::vector<int>& block, i
 // The anchors of `was` (a build before: each level's, in the order it took them) are taken first,
 // then the sweep fills what they leave.
 //
-// With `reuse` (s.searched holds the last build's fine searches and the cloth they read), a fine
-// search runs again only from an anchor within 2 S edges of a vertex whose neighbours or rest
-// lengths changed or whose being an anchor did; the others' limits are as they were, bit for bit.
+// With `reuse` (s.searched holds the last build's searches and the graphs they read), a search
+// runs again only from an anchor within 2 S edges of a vertex whose neighbours or rest lengths (at
+// a coarse level: whose finer limits) changed or whose being an anchor did; the others' limits are
+// as they were, bit for bit.
 void build_long_range(SolverArrays& s, bool reuse, const std::vector<std::vector<int>>* was) {
   s.l_i.clear();
   s.l_j.clear();
@@ -280,9 +281,9 @@ void build_long_range(SolverArrays& s, bool reuse, const std::vector<std::vector
       changed[v] = !same;
     }
   }
-  std::vector<int> hop(n, -1), mark(n, 0);
+  std::vector<int> hop(n, 0), mark(n, 0);
   std::vector<char> anchor(n, 0);
-  std::vector<int> touched, queue, anchors, finer;
+  std::vector<int> queue, anchors, finer;
   using QE = std::pair<double, int>;
   std::vector<std::array<int, 2>> li;
   std::vector<double> lr;
@@ -307,26 +308,27 @@ void build_long_range(SolverArrays& s, bool reuse, const std::vector<std::vector
     finer.swap(anchors);
     anchors.clear();
     const std::vector<int>& sweep = fine ? s.order : finer;
+    // A vertex is marked within S - 1 edges of an anchor taken. Each anchor's search goes on only
+    // where it comes nearer than the anchors before it came (`hop`: the nearest one's edges away),
+    // so the level's searches cover the cloth about once, not once an anchor; the same marks.
+    std::fill(hop.begin(), hop.end(), S);
     auto take = [&](int a) {
       anchor[a] = 1;
       anchors.push_back(a);
       queue.assign(1, a);
       hop[a] = 0;
-      touched.assign(1, a);
       mark[a] = 1;
       for (std::size_t q = 0; q < queue.size(); ++q) {
         const int u = queue[q];
         if (hop[u] >= S - 1) continue;
         for (int k = s.nbr_begin[u]; k < s.nbr_begin[u + 1]; ++k) {
           const int w = s.nbr[k];
-          if (hop[w] >= 0) continue;
+          if (hop[w] <= hop[u] + 1) continue;
           hop[w] = hop[u] + 1;
           mark[w] = 1;
-          touched.push_back(w);
           queue.push_back(w);
         }
       }
-      for (int u : touched) hop[u] = -1;
     };
     // The last build's anchors first, in the order it took them (those an edit left S apart), so
     // that an edit moves the anchors only around itself: a sweep from scratch finds others
@@ -351,7 +353,7 @@ void build_long_range(SolverArrays& s, bool reuse, const std::vector<std::vector
     }
     taken->push_back(anchors);
     if (anchors.size() < 2) {
-      for (int L = S == 2 ? 0 : 1; L < 2 && fine; ++L) s.searched[L] = {};
+      for (std::size_t L = level_index; L < s.searched.size(); ++L) s.searched[L] = {};
       break;
     }
     if (!fine) {  // the finer level's limits, both ways
@@ -374,14 +376,33 @@ void build_long_range(SolverArrays& s, bool reuse, const std::vector<std::vector
           g_edges[f] = lh[k];
         }
     }
-    // Fine levels: which anchors' searches must run again (all, without `reuse`).
+    // Which anchors' searches must run again (all, without `reuse`): a search reads the graph
+    // no further than 2 S edges of the cloth from its anchor.
+    // Above S = 16 a level's few dozen searches cost less than finding which to run.
     std::vector<char> again(n, 1);
-    SolverArrays::LimitSearch* kept = fine ? &s.searched[S == 2 ? 0 : 1] : nullptr;
-    if (fine && reuse && kept->anchor.size() <= n) {
+    SolverArrays::LimitSearch* kept = S <= 16 ? &s.searched[level_index] : nullptr;
+    if (reuse && kept && kept->anchor.size() <= n) {
+      // A coarse level's graph is the finer level's limits: a vertex whose limits are not those
+      // the last build's search read has changed.
+      std::vector<char> limits_changed;
+      if (!fine) {
+        limits_changed.assign(n, 1);
+        const std::size_t old_n = kept->g_begin.empty() ? 0 : kept->g_begin.size() - 1;
+        for (std::size_t v = 0; v < std::min(n, old_n); ++v) {
+          const int b = g_begin[v], e = g_begin[v + 1], ob = kept->g_begin[v];
+          if (e - b != kept->g_begin[v + 1] - ob) continue;
+          bool same = true;
+          for (int k = 0; k < e - b && same; ++k)
+            same = g_to[b + k] == kept->g_to[ob + k] && g_len[b + k] == kept->g_len[ob + k] &&
+                   g_edges[b + k] == kept->g_edges[ob + k];
+          limits_changed[v] = !same;
+        }
+      }
+      const std::vector<char>& read_changed = fine ? changed : limits_changed;
       std::vector<int> depth(n, -1);
       queue.clear();
       for (std::size_t v = 0; v < n; ++v)
-        if (changed[v] || anchor[v] != (v < kept->anchor.size() ? kept->anchor[v] : 0)) {
+        if (read_changed[v] || anchor[v] != (v < kept->anchor.size() ? kept->anchor[v] : 0)) {
           depth[v] = 0;
           queue.push_back(static_cast<int>(v));
         }
@@ -463,10 +484,16 @@ void build_long_range(SolverArrays& s, bool reuse, const std::vector<std::vector
     std::vector<std::size_t> idx;
     for (std::size_t k = before; k < li.size(); ++k) idx.push_back(k);
     levels.push_back(idx);
-    if (fine) {  // kept for the next rebuild: each anchor's limits are consecutive
-      for (int c : piece_searches) s.searches += c;
+    for (int c : piece_searches) s.searches += c;
+    if (kept) {  // kept for the next rebuild: each anchor's limits are consecutive
       SolverArrays::LimitSearch found;
       found.anchor = anchor;
+      if (!fine) {
+        found.g_begin = g_begin;
+        found.g_to = g_to;
+        found.g_len = g_len;
+        found.g_edges = g_edges;
+      }
       found.first.assign(n, 0);
       found.count.assign(n, 0);
       for (std::size_t k = before; k < li.size(); ++k) {

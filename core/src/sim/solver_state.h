@@ -118,19 +118,22 @@ struct SolverArrays {
   std::vector<double> l_rest;
   std::vector<int> l_ranges;               // level by level, coarse to fine
   std::vector<unsigned char> l_kinds;
-  // What the last rebuild's two fine levels (S = 2, 4) found, and the cloth they searched: a search
-  // from an anchor reads only the cloth within 2 S edges of it, so the next rebuild searches again
+  // What the last rebuild's levels found, and the graph they searched (the cloth's edges at the two
+  // fine levels, S = 2, 4; the finer level's limits at the coarse ones): a search from an anchor
+  // reads only the graph within 2 S edges of the cloth from it, so the next rebuild searches again
   // only from the anchors near what an edit changed (build_long_range), and finds the same limits.
   struct LimitSearch {
     std::vector<char> anchor;        // per vertex: an anchor of the level
     std::vector<int> first, count;   // per vertex: its search's limits in to / rest / edges
     std::vector<int> to, edges;
     std::vector<double> rest;
+    std::vector<int> g_begin, g_to, g_edges;  // a coarse level's graph: the finer level's limits
+    std::vector<double> g_len;
   };
-  std::array<LimitSearch, 2> searched;
+  std::array<LimitSearch, 4> searched;  // S = 2 ... 16
   std::vector<int> searched_nbr_begin, searched_nbr;  // the adjacency those searches read
   std::vector<double> searched_nbr_rest;
-  int searches = 0;  // searches the last rebuild ran at the fine levels (the rest were kept)
+  int searches = 0;  // searches the last rebuild ran (the rest were kept)
 
   // ---- bending: isometric (quadratic) bending per interior edge ----
   struct Bend {

@@ -45,6 +45,9 @@ int configured_threads() {
   return static_cast<int>(std::clamp(hw, 1u, 8u));
 }
 
+// Whether this thread is running a chunk of a shared loop.
+thread_local bool in_chunk = false;
+
 class Pool {
  public:
   explicit Pool(int threads) : threads_(threads) {
@@ -65,6 +68,10 @@ class Pool {
   // thrown is kept, the chunks not yet claimed are skipped, and it is thrown here once every chunk
   // is accounted for (the workers never see it leave their loop).
   void run(int n, int grain, void* ctx, RangeFn fn, bool exact = false) {
+    if (in_chunk) {  // a loop within a chunk of another (the caller may hold region_ itself)
+      fn(ctx, 0, n);
+      return;
+    }
     std::unique_lock<std::mutex> region(region_, std::try_to_lock);
     if (!region.owns_lock() || workers_.empty()) {
       fn(ctx, 0, n);
@@ -106,8 +113,11 @@ class Pool {
       const int b = c * chunk_;
       if (!failed_.load(std::memory_order_acquire)) {
         try {
+          in_chunk = true;
           fn_(ctx_, b, std::min(n_, b + chunk_));
+          in_chunk = false;
         } catch (...) {
+          in_chunk = false;
           std::lock_guard<std::mutex> lock(error_m_);
           if (!error_) error_ = std::current_exception();
           failed_.store(true, std::memory_order_release);

@@ -9,7 +9,8 @@
 //
 // Workers spin briefly between calls (a substep issues a few dozen back to back) and then sleep,
 // so an idle solver costs no CPU. One parallel loop runs at a time in the process: a second
-// caller (another garment's solver on another thread) runs its loop serially instead of waiting.
+// caller (another garment's solver on another thread, or a loop within a chunk of one) runs its
+// loop serially instead of waiting.
 // KIJI_THREADS=N in the environment sets the number of threads (1 = serial); the default is the
 // number of hardware threads, at most 8.
 //

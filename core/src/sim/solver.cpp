@@ -847,44 +847,58 @@ void rebuild(SolverArrays& s, const Garment& g) {
       for (int u : {ei[k], ej[k]}) s.spacing[u] = s.spacing[u] > 0 ? std::min(s.spacing[u], r) : r;
     }
   }
-  build_long_range(s, had_searches, before_anchors.get());
-
   // Self-collision trees: a leaf per cluster of nearby triangles and of nearby vertices (runs in
   // Morton order), built once, refitted at each gather.
-  auto cluster_tree = [&](const std::vector<std::pair<std::uint32_t, int>>& sorted, int size,
-                          const std::vector<Box3>& item_box, btDbvt& tree, std::vector<int>& begin,
-                          std::vector<int>& items, std::vector<btDbvtNode*>& leaf_of) {
-    const int count = static_cast<int>(sorted.size()), clusters = (count + size - 1) / size;
-    begin.assign(1, 0);
-    items.clear();
-    std::vector<std::pair<std::uint32_t, int>> keys;
-    std::vector<btDbvtVolume> volumes;
-    for (int c = 0; c < clusters; ++c) {
-      Box3 b;
-      for (int k = c * size; k < std::min(count, (c + 1) * size); ++k) {
-        items.push_back(sorted[k].second);
-        b.extend(item_box[sorted[k].second]);
+  auto collision_structures = [&] {
+    auto cluster_tree = [&](const std::vector<std::pair<std::uint32_t, int>>& sorted, int size,
+                            const std::vector<Box3>& item_box, btDbvt& tree, std::vector<int>& begin,
+                            std::vector<int>& items, std::vector<btDbvtNode*>& leaf_of) {
+      const int count = static_cast<int>(sorted.size()), clusters = (count + size - 1) / size;
+      begin.assign(1, 0);
+      items.clear();
+      std::vector<std::pair<std::uint32_t, int>> keys;
+      std::vector<btDbvtVolume> volumes;
+      for (int c = 0; c < clusters; ++c) {
+        Box3 b;
+        for (int k = c * size; k < std::min(count, (c + 1) * size); ++k) {
+          items.push_back(sorted[k].second);
+          b.extend(item_box[sorted[k].second]);
+        }
+        begin.push_back(static_cast<int>(items.size()));
+        keys.emplace_back(sorted[c * size].first, c);
+        volumes.push_back(btDbvtVolume::FromMM(btVector3(b.min().x(), b.min().y(), b.min().z()),
+                                               btVector3(b.max().x(), b.max().y(), b.max().z())));
       }
-      begin.push_back(static_cast<int>(items.size()));
-      keys.emplace_back(sorted[c * size].first, c);
-      volumes.push_back(btDbvtVolume::FromMM(btVector3(b.min().x(), b.min().y(), b.min().z()),
-                                             btVector3(b.max().x(), b.max().y(), b.max().z())));
+      leaf_of.assign(clusters, nullptr);
+      build_tree(tree, keys, volumes, leaf_of);
+    };
+    std::vector<Box3> item_box(s.tris.size());
+    keyed.clear();
+    for (std::size_t t = 0; t < s.tris.size(); ++t) {
+      for (int k = 0; k < 3; ++k) item_box[t].extend(built_at[s.tris[t][k]]);
+      keyed.emplace_back(morton(item_box[t].center()), static_cast<int>(t));
     }
-    leaf_of.assign(clusters, nullptr);
-    build_tree(tree, keys, volumes, leaf_of);
+    std::sort(keyed.begin(), keyed.end());
+    cluster_tree(keyed, SolverArrays::kTriCluster, item_box, s.tri_tree, s.tcl_begin, s.tcl_items, s.tcl_leaf);
+    item_box.assign(n, Box3());
+    for (Vertex v : m.vertices()) item_box[v.idx()].extend(built_at[v.idx()]);
+    cluster_tree(vertex_keys, SolverArrays::kVertCluster, item_box, s.vert_tree, s.vcl_begin, s.vcl_items, s.vcl_leaf);
+    build_self_exclusions(s);
   };
-  std::vector<Box3> item_box(s.tris.size());
-  keyed.clear();
-  for (std::size_t t = 0; t < s.tris.size(); ++t) {
-    for (int k = 0; k < 3; ++k) item_box[t].extend(built_at[s.tris[t][k]]);
-    keyed.emplace_back(morton(item_box[t].center()), static_cast<int>(t));
+  // After an edit, when few long-range searches run, the limits and the collision's structures are
+  // built side by side (they read what is built above and write apart; a loop within either then
+  // runs on its own thread). A first build shares the limits' searches between the threads instead.
+  if (had_searches) {
+    parallel::for_each(2, [&](int task) {
+      if (task == 0)
+        build_long_range(s, had_searches, before_anchors.get());
+      else
+        collision_structures();
+    });
+  } else {
+    build_long_range(s, had_searches, before_anchors.get());
+    collision_structures();
   }
-  std::sort(keyed.begin(), keyed.end());
-  cluster_tree(keyed, SolverArrays::kTriCluster, item_box, s.tri_tree, s.tcl_begin, s.tcl_items, s.tcl_leaf);
-  item_box.assign(n, Box3());
-  for (Vertex v : m.vertices()) item_box[v.idx()].extend(built_at[v.idx()]);
-  cluster_tree(vertex_keys, SolverArrays::kVertCluster, item_box, s.vert_tree, s.vcl_begin, s.vcl_items, s.vcl_leaf);
-  build_self_exclusions(s);
 
   s.self_pairs.clear();
   s.sleep_ready = false;  // everything awake, but what the garment's sleep record finds as it slept

@@ -86,6 +86,22 @@ TEST(Parallel, AnExceptionInALoopNestedInAPieceReachesTheOuterCaller) {
   EXPECT_EQ(sum_of_squares(1000), 332833500LL);
 }
 
+TEST(Parallel, LoopsWithinTasksDoEveryItemOnce) {
+  // Two tasks side by side (a rebuild's long-range limits and collision structures), each with
+  // loops of its own, which run on the task's thread: on the caller's as on a worker's.
+  for (int round = 0; round < 50; ++round) {
+    std::vector<std::atomic<int>> seen(2 * 5000);
+    parallel::for_each(2, [&](int task) {
+      for (int pass = 0; pass < 3; ++pass)
+        parallel::for_range(5000, 16, [&](int b, int e) {
+          for (int i = b; i < e; ++i) seen[task * 5000 + i] += pass == 1 ? 1 : 0;
+        });
+    });
+    for (const auto& s : seen) ASSERT_EQ(s.load(), 1);
+  }
+  EXPECT_EQ(sum_of_squares(1000), 332833500LL);
+}
+
 TEST(Parallel, TheTimeInSharedLoopsIsCounted) {
   const double before = parallel::shared_seconds();
   // Atomic: every worker writes it, and it only keeps the sums from being optimised away.

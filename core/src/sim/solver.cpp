@@ -764,89 +764,106 @@ void rebuild(SolverArrays& s, const Garment& g) {
   s.blocks = std::clamp(live / kBlockVertices, 1, SolverArrays::kMaxBlocks);
   s.block.assign(n, 0);
   for (int r = 0; r < live; ++r) s.block[s.order[r]] = static_cast<int>(std::int64_t(r) * s.blocks / live);
-  std::vector<int> perm;
-  schedule<2>(ei.size(), n, s.block, s.blocks, [&](std::size_t c) { return std::array<int, 2>{ei[c], ej[c]}; }, perm,
-              s.e_ranges, s.e_kinds);
-  s.e_i.resize(perm.size());
-  s.e_j.resize(perm.size());
-  s.e_handle.resize(perm.size());
-  s.e_rest.assign(perm.size(), 0.0);
-  for (std::size_t k = 0; k < perm.size(); ++k) {
-    s.e_i[k] = ei[perm[k]];
-    s.e_j[k] = ej[perm[k]];
-    s.e_handle[k] = eh[perm[k]];
-  }
-
-  // Isometric bending (Bergou et al. 2006, "A quadratic bending model for inextensible surfaces")
-  // on every interior edge, from the rest lengths (the pattern is flat at rest).
-  std::vector<SolverArrays::Bend> bends;
-  for (Edge e : m.edges()) {
-    if (m.is_border(e)) continue;
-    const Halfedge h = m.halfedge(e), o = m.opposite(h);
-    const int a = static_cast<int>(m.source(h).idx()), b = static_cast<int>(m.target(h).idx());
-    const int c = static_cast<int>(m.target(m.next(h)).idx());
-    const int d = static_cast<int>(m.target(m.next(o)).idx());
-    if (c == d) continue;
-    const double lab = g.rest_length(e);
-    const double lbc = g.rest_length(m.edge(m.next(h))), lca = g.rest_length(m.edge(m.prev(h)));
-    const double lad = g.rest_length(m.edge(m.next(o))), ldb = g.rest_length(m.edge(m.prev(o)));
-    const double A0 = heron(lab, lbc, lca), A1 = heron(lab, lad, ldb);
-    if (!(A0 > 1e-14) || !(A1 > 1e-14)) continue;
-    const double c01 = (lab * lab + lca * lca - lbc * lbc) / (4 * A0);  // angle at a, triangle abc
-    const double c02 = (lab * lab + lad * lad - ldb * ldb) / (4 * A1);  // angle at a, triangle abd
-    const double c03 = (lab * lab + lbc * lbc - lca * lca) / (4 * A0);  // angle at b, triangle abc
-    const double c04 = (lab * lab + ldb * ldb - lad * lad) / (4 * A1);  // angle at b, triangle abd
-    // Bergou's weight is 3 / (A0 + A1) for the integral of the squared mean-curvature normal; with
-    // 1 / (A0 + A1) the energy (k_b / 2) |C|^2 summed over edges matches (k_b / 2) kappa^2 per unit
-    // area on a cylinder (checked on this triangulation to within the border edges' share), so
-    // k_b is the fabric's bending rigidity in N m.
-    const double sc = std::sqrt(1.0 / (A0 + A1));
-    SolverArrays::Bend bd{{a, b, c, d},
-                          {sc * (c03 + c04), sc * (c01 + c02), sc * (-c01 - c03), sc * (-c02 - c04)}};
-    bends.push_back(bd);
-  }
-  schedule<4>(bends.size(), n, s.block, s.blocks,
-              [&](std::size_t c) { return std::array<int, 4>{bends[c].v[0], bends[c].v[1], bends[c].v[2], bends[c].v[3]}; },
-              perm, s.b_ranges, s.b_kinds);
-  s.bends.resize(perm.size());
-  for (std::size_t k = 0; k < perm.size(); ++k) s.bends[k] = bends[perm[k]];
-
-  // Triangles and neighbours.
-  s.tris.clear();
-  for (Face f : m.faces()) {
-    std::array<int, 3> t{};
-    int k = 0;
-    for (Vertex v : CGAL::vertices_around_face(m.halfedge(f), m)) {
-      if (k < 3) t[k] = static_cast<int>(v.idx());
-      ++k;
+  auto stretch = [&] {
+    std::vector<int> perm;
+    schedule<2>(ei.size(), n, s.block, s.blocks, [&](std::size_t c) { return std::array<int, 2>{ei[c], ej[c]}; }, perm,
+                s.e_ranges, s.e_kinds);
+    s.e_i.resize(perm.size());
+    s.e_j.resize(perm.size());
+    s.e_handle.resize(perm.size());
+    s.e_rest.assign(perm.size(), 0.0);
+    for (std::size_t k = 0; k < perm.size(); ++k) {
+      s.e_i[k] = ei[perm[k]];
+      s.e_j[k] = ej[perm[k]];
+      s.e_handle[k] = eh[perm[k]];
     }
-    if (k == 3) s.tris.push_back(t);
-  }
-  if (had_searches) {
-    s.searched_nbr_begin.swap(s.nbr_begin);
-    s.searched_nbr.swap(s.nbr);
-    s.searched_nbr_rest.swap(s.nbr_rest);
-  }
-  s.nbr_begin.assign(n + 1, 0);
-  for (std::size_t k = 0; k < ei.size(); ++k) {
-    ++s.nbr_begin[ei[k] + 1];
-    ++s.nbr_begin[ej[k] + 1];
-  }
-  for (std::size_t i = 0; i < n; ++i) s.nbr_begin[i + 1] += s.nbr_begin[i];
-  s.nbr.assign(s.nbr_begin[n], 0);
-  s.nbr_rest.assign(s.nbr_begin[n], 0.0);
-  s.spacing.assign(n, 0.0);
-  {
-    std::vector<int> fill(s.nbr_begin.begin(), s.nbr_begin.end() - 1);
+
+    // Triangles and neighbours.
+    s.tris.clear();
+    for (Face f : m.faces()) {
+      std::array<int, 3> t{};
+      int k = 0;
+      for (Vertex v : CGAL::vertices_around_face(m.halfedge(f), m)) {
+        if (k < 3) t[k] = static_cast<int>(v.idx());
+        ++k;
+      }
+      if (k == 3) s.tris.push_back(t);
+    }
+    if (had_searches) {
+      s.searched_nbr_begin.swap(s.nbr_begin);
+      s.searched_nbr.swap(s.nbr);
+      s.searched_nbr_rest.swap(s.nbr_rest);
+    }
+    s.nbr_begin.assign(n + 1, 0);
     for (std::size_t k = 0; k < ei.size(); ++k) {
-      const double r = g.rest_length(eh[k]);
-      s.nbr_rest[fill[ei[k]]] = r;
-      s.nbr[fill[ei[k]]++] = ej[k];
-      s.nbr_rest[fill[ej[k]]] = r;
-      s.nbr[fill[ej[k]]++] = ei[k];
-      for (int u : {ei[k], ej[k]}) s.spacing[u] = s.spacing[u] > 0 ? std::min(s.spacing[u], r) : r;
+      ++s.nbr_begin[ei[k] + 1];
+      ++s.nbr_begin[ej[k] + 1];
     }
-  }
+    for (std::size_t i = 0; i < n; ++i) s.nbr_begin[i + 1] += s.nbr_begin[i];
+    s.nbr.assign(s.nbr_begin[n], 0);
+    s.nbr_rest.assign(s.nbr_begin[n], 0.0);
+    s.spacing.assign(n, 0.0);
+    {
+      std::vector<int> fill(s.nbr_begin.begin(), s.nbr_begin.end() - 1);
+      for (std::size_t k = 0; k < ei.size(); ++k) {
+        const double r = g.rest_length(eh[k]);
+        s.nbr_rest[fill[ei[k]]] = r;
+        s.nbr[fill[ei[k]]++] = ej[k];
+        s.nbr_rest[fill[ej[k]]] = r;
+        s.nbr[fill[ej[k]]++] = ei[k];
+        for (int u : {ei[k], ej[k]}) s.spacing[u] = s.spacing[u] > 0 ? std::min(s.spacing[u], r) : r;
+      }
+    }
+  };
+
+  auto bending = [&] {
+    // Isometric bending (Bergou et al. 2006, "A quadratic bending model for inextensible surfaces")
+    // on every interior edge, from the rest lengths (the pattern is flat at rest).
+    std::vector<SolverArrays::Bend> bends;
+    for (Edge e : m.edges()) {
+      if (m.is_border(e)) continue;
+      const Halfedge h = m.halfedge(e), o = m.opposite(h);
+      const int a = static_cast<int>(m.source(h).idx()), b = static_cast<int>(m.target(h).idx());
+      const int c = static_cast<int>(m.target(m.next(h)).idx());
+      const int d = static_cast<int>(m.target(m.next(o)).idx());
+      if (c == d) continue;
+      const double lab = g.rest_length(e);
+      const double lbc = g.rest_length(m.edge(m.next(h))), lca = g.rest_length(m.edge(m.prev(h)));
+      const double lad = g.rest_length(m.edge(m.next(o))), ldb = g.rest_length(m.edge(m.prev(o)));
+      const double A0 = heron(lab, lbc, lca), A1 = heron(lab, lad, ldb);
+      if (!(A0 > 1e-14) || !(A1 > 1e-14)) continue;
+      const double c01 = (lab * lab + lca * lca - lbc * lbc) / (4 * A0);  // angle at a, triangle abc
+      const double c02 = (lab * lab + lad * lad - ldb * ldb) / (4 * A1);  // angle at a, triangle abd
+      const double c03 = (lab * lab + lbc * lbc - lca * lca) / (4 * A0);  // angle at b, triangle abc
+      const double c04 = (lab * lab + ldb * ldb - lad * lad) / (4 * A1);  // angle at b, triangle abd
+      // Bergou's weight is 3 / (A0 + A1) for the integral of the squared mean-curvature normal; with
+      // 1 / (A0 + A1) the energy (k_b / 2) |C|^2 summed over edges matches (k_b / 2) kappa^2 per unit
+      // area on a cylinder (checked on this triangulation to within the border edges' share), so
+      // k_b is the fabric's bending rigidity in N m.
+      const double sc = std::sqrt(1.0 / (A0 + A1));
+      SolverArrays::Bend bd{{a, b, c, d},
+                            {sc * (c03 + c04), sc * (c01 + c02), sc * (-c01 - c03), sc * (-c02 - c04)}};
+      bends.push_back(bd);
+    }
+    std::vector<int> perm;
+    schedule<4>(bends.size(), n, s.block, s.blocks,
+                [&](std::size_t c) {
+                  return std::array<int, 4>{bends[c].v[0], bends[c].v[1], bends[c].v[2], bends[c].v[3]};
+                },
+                perm, s.b_ranges, s.b_kinds);
+    s.bends.resize(perm.size());
+    for (std::size_t k = 0; k < perm.size(); ++k) s.bends[k] = bends[perm[k]];
+  };
+
+  // The stretch constraints with the triangles and neighbours, beside the bending constraints:
+  // they read the mesh and the blocks, and write apart.
+  parallel::for_each(2, [&](int task) {
+    if (task == 0)
+      stretch();
+    else
+      bending();
+  });
+
   // Self-collision trees: a leaf per cluster of nearby triangles and of nearby vertices (runs in
   // Morton order), built once, refitted at each gather.
   auto collision_structures = [&] {

@@ -34,6 +34,14 @@ Garment cloth(int n, const Box3& body) {
   return g;
 }
 
+// That cloth after a second falling onto the body, stepped by `solver`.
+Garment landed_cloth(int n, const Body& body, Solver& solver) {
+  Garment g = cloth(n, body.bounds());
+  solver.set_body(&body);
+  for (int i = 0; i < 60; ++i) solver.step(g, 1.0 / 60);
+  return g;
+}
+
 double ms_per_step(SolverModel model, int n, const Body* body, int warm, int steps, bool self = true) {
   Box3 box;
   if (body) box = body->bounds();
@@ -83,12 +91,8 @@ int main(int argc, char** argv) {
   }
   if (argc > 1 && std::strcmp(argv[1], "prepare") == 0) {  // solver_bench prepare [n [reps]]
     const int n = argc > 2 ? std::atoi(argv[2]) : 141, reps = argc > 3 ? std::atoi(argv[3]) : 5;
-    Garment g = cloth(n, body.bounds());
-    {
-      Solver solver{SolverParams{}};
-      solver.set_body(&body);
-      for (int i = 0; i < 60; ++i) solver.step(g, 1.0 / 60);
-    }
+    Solver landing{SolverParams{}};
+    const Garment g = landed_cloth(n, body, landing);
     for (int r = 0; r < reps; ++r) {
       Solver solver{SolverParams{}};
       solver.set_body(&body);
@@ -100,10 +104,8 @@ int main(int argc, char** argv) {
   }
   if (argc > 1 && std::strcmp(argv[1], "edit") == 0) {  // solver_bench edit [n [reps]]
     const int n = argc > 2 ? std::atoi(argv[2]) : 141, reps = argc > 3 ? std::atoi(argv[3]) : 8;
-    Garment g = cloth(n, body.bounds());
     Solver solver{SolverParams{}};
-    solver.set_body(&body);
-    for (int i = 0; i < 60; ++i) solver.step(g, 1.0 / 60);
+    Garment g = landed_cloth(n, body, solver);
     for (int r = 0; r < reps; ++r) {
       // A slit of a tenth of the cloth across a row, each further along the cloth's diagonal.
       const int row = n / 5 + (r * 3 * n / 5) / std::max(1, reps), col = n / 5 + (r * n / 2) / std::max(1, reps);

@@ -684,6 +684,49 @@ double heron(double a, double b, double c) {
   const double q = s * (s - a) * (s - b) * (s - c);
   return q > 0 ? std::sqrt(q) : 0.0;
 }
+
+// The bending constraints, in the blocks' order (see schedule).
+void build_bending(SolverArrays& s, const Garment& g) {
+  const Mesh& m = g.mesh();
+  const std::size_t n = s.n;
+  // Isometric bending (Bergou et al. 2006, "A quadratic bending model for inextensible surfaces")
+  // on every interior edge, from the rest lengths (the pattern is flat at rest).
+  std::vector<SolverArrays::Bend> bends;
+  for (Edge e : m.edges()) {
+    if (m.is_border(e)) continue;
+    const Halfedge h = m.halfedge(e), o = m.opposite(h);
+    const int a = static_cast<int>(m.source(h).idx()), b = static_cast<int>(m.target(h).idx());
+    const int c = static_cast<int>(m.target(m.next(h)).idx());
+    const int d = static_cast<int>(m.target(m.next(o)).idx());
+    if (c == d) continue;
+    const double lab = g.rest_length(e);
+    const double lbc = g.rest_length(m.edge(m.next(h))), lca = g.rest_length(m.edge(m.prev(h)));
+    const double lad = g.rest_length(m.edge(m.next(o))), ldb = g.rest_length(m.edge(m.prev(o)));
+    const double A0 = heron(lab, lbc, lca), A1 = heron(lab, lad, ldb);
+    if (!(A0 > 1e-14) || !(A1 > 1e-14)) continue;
+    const double c01 = (lab * lab + lca * lca - lbc * lbc) / (4 * A0);  // angle at a, triangle abc
+    const double c02 = (lab * lab + lad * lad - ldb * ldb) / (4 * A1);  // angle at a, triangle abd
+    const double c03 = (lab * lab + lbc * lbc - lca * lca) / (4 * A0);  // angle at b, triangle abc
+    const double c04 = (lab * lab + ldb * ldb - lad * lad) / (4 * A1);  // angle at b, triangle abd
+    // Bergou's weight is 3 / (A0 + A1) for the integral of the squared mean-curvature normal; with
+    // 1 / (A0 + A1) the energy (k_b / 2) |C|^2 summed over edges matches (k_b / 2) kappa^2 per unit
+    // area on a cylinder (checked on this triangulation to within the border edges' share), so
+    // k_b is the fabric's bending rigidity in N m.
+    const double sc = std::sqrt(1.0 / (A0 + A1));
+    SolverArrays::Bend bd{{a, b, c, d},
+                          {sc * (c03 + c04), sc * (c01 + c02), sc * (-c01 - c03), sc * (-c02 - c04)}};
+    bends.push_back(bd);
+  }
+  std::vector<int> perm;
+  schedule<4>(bends.size(), n, s.block, s.blocks,
+              [&](std::size_t c) {
+                return std::array<int, 4>{bends[c].v[0], bends[c].v[1], bends[c].v[2], bends[c].v[3]};
+              },
+              perm, s.b_ranges, s.b_kinds);
+  s.bends.resize(perm.size());
+  for (std::size_t k = 0; k < perm.size(); ++k) s.bends[k] = bends[perm[k]];
+}
+
 }  // namespace
 
 void rebuild(SolverArrays& s, const Garment& g) {
@@ -816,52 +859,13 @@ void rebuild(SolverArrays& s, const Garment& g) {
     }
   };
 
-  auto bending = [&] {
-    // Isometric bending (Bergou et al. 2006, "A quadratic bending model for inextensible surfaces")
-    // on every interior edge, from the rest lengths (the pattern is flat at rest).
-    std::vector<SolverArrays::Bend> bends;
-    for (Edge e : m.edges()) {
-      if (m.is_border(e)) continue;
-      const Halfedge h = m.halfedge(e), o = m.opposite(h);
-      const int a = static_cast<int>(m.source(h).idx()), b = static_cast<int>(m.target(h).idx());
-      const int c = static_cast<int>(m.target(m.next(h)).idx());
-      const int d = static_cast<int>(m.target(m.next(o)).idx());
-      if (c == d) continue;
-      const double lab = g.rest_length(e);
-      const double lbc = g.rest_length(m.edge(m.next(h))), lca = g.rest_length(m.edge(m.prev(h)));
-      const double lad = g.rest_length(m.edge(m.next(o))), ldb = g.rest_length(m.edge(m.prev(o)));
-      const double A0 = heron(lab, lbc, lca), A1 = heron(lab, lad, ldb);
-      if (!(A0 > 1e-14) || !(A1 > 1e-14)) continue;
-      const double c01 = (lab * lab + lca * lca - lbc * lbc) / (4 * A0);  // angle at a, triangle abc
-      const double c02 = (lab * lab + lad * lad - ldb * ldb) / (4 * A1);  // angle at a, triangle abd
-      const double c03 = (lab * lab + lbc * lbc - lca * lca) / (4 * A0);  // angle at b, triangle abc
-      const double c04 = (lab * lab + ldb * ldb - lad * lad) / (4 * A1);  // angle at b, triangle abd
-      // Bergou's weight is 3 / (A0 + A1) for the integral of the squared mean-curvature normal; with
-      // 1 / (A0 + A1) the energy (k_b / 2) |C|^2 summed over edges matches (k_b / 2) kappa^2 per unit
-      // area on a cylinder (checked on this triangulation to within the border edges' share), so
-      // k_b is the fabric's bending rigidity in N m.
-      const double sc = std::sqrt(1.0 / (A0 + A1));
-      SolverArrays::Bend bd{{a, b, c, d},
-                            {sc * (c03 + c04), sc * (c01 + c02), sc * (-c01 - c03), sc * (-c02 - c04)}};
-      bends.push_back(bd);
-    }
-    std::vector<int> perm;
-    schedule<4>(bends.size(), n, s.block, s.blocks,
-                [&](std::size_t c) {
-                  return std::array<int, 4>{bends[c].v[0], bends[c].v[1], bends[c].v[2], bends[c].v[3]};
-                },
-                perm, s.b_ranges, s.b_kinds);
-    s.bends.resize(perm.size());
-    for (std::size_t k = 0; k < perm.size(); ++k) s.bends[k] = bends[perm[k]];
-  };
-
   // The stretch constraints with the triangles and neighbours, beside the bending constraints:
   // they read the mesh and the blocks, and write apart.
   parallel::for_each(2, [&](int task) {
     if (task == 0)
       stretch();
     else
-      bending();
+      build_bending(s, g);
   });
 
   // Self-collision trees: a leaf per cluster of nearby triangles and of nearby vertices (runs in

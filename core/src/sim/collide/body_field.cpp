@@ -152,46 +152,55 @@ const BodyField::Block* BodyField::fill(int slot) const {
   const int nt = near_begin_[slot + 1] - near_begin_[slot];
   auto block = std::make_unique<Block>();
   block->begin[0] = 0;
+  // Each triangle's unit normal and centre, once for the block (none for a degenerate one).
+  std::vector<Vec3> tri_normal(nt), tri_centre(nt);
+  std::vector<char> has_normal(nt);
+  for (int q = 0; q < nt; ++q) {
+    const auto& f = T[tris[q]];
+    const Vec3 n = (V[f[1]] - V[f[0]]).cross(V[f[2]] - V[f[0]]);
+    has_normal[q] = n.squaredNorm() > 0;
+    if (has_normal[q]) tri_normal[q] = n.normalized();
+    tri_centre[q] = (V[f[0]] + V[f[1]] + V[f[2]]) / 3;
+  }
   std::vector<Vec3> normals, centres;
+  // The turn over the triangles within half a cell beyond the band: the block's list holds every
+  // triangle within the band of the block, and a cell's centre is half a cell inside it.
+  const double turn_radius = band_ + 0.5 * cell_;
   for (int c = 0; c < kCells; ++c) {
     const int cx = c % kBlock, cy = (c / kBlock) % kBlock, cz = c / (kBlock * kBlock);
     const Vec3 centre = origin_ + cell_ * Vec3(bx * kBlock + cx + 0.5, by * kBlock + cy + 0.5, bz * kBlock + cz + 0.5);
     // The triangles whose boxes come within the band of the centre (a superset of those within the
-    // band of it), and the nearest of them exactly.
+    // band of it) and the nearest of them exactly; those within the turn's radius, for the turn.
+    // One exact distance a triangle serves both.
     std::vector<int>& list = block->list;
     const std::size_t before = list.size();
-    for (int q = 0; q < nt; ++q) {
-      const Box3& tb = boxes_[tris[q]];
-      if ((centre - centre.cwiseMax(tb.min()).cwiseMin(tb.max())).squaredNorm() <= band_ * band_) list.push_back(tris[q]);
-    }
     double best = std::numeric_limits<double>::infinity();
-    for (std::size_t q = before; q < list.size(); ++q) {
-      const auto& f = T[list[q]];
-      best = std::min(best, (centre - geom::closest_on_triangle(centre, V[f[0]], V[f[1]], V[f[2]]).point).norm());
-    }
-    // The turn over the triangles within half a cell beyond the band: the block's list holds every
-    // triangle within the band of the block, and a cell's centre is half a cell inside it.
-    const double turn_radius = band_ + 0.5 * cell_;
     normals.clear();
     centres.clear();
     for (int q = 0; q < nt; ++q) {
       const Box3& tb = boxes_[tris[q]];
-      if ((centre - centre.cwiseMax(tb.min()).cwiseMin(tb.max())).squaredNorm() > turn_radius * turn_radius) continue;
+      const double box2 = (centre - centre.cwiseMax(tb.min()).cwiseMin(tb.max())).squaredNorm();
+      if (box2 > turn_radius * turn_radius) continue;
       const auto& f = T[tris[q]];
-      if ((centre - geom::closest_on_triangle(centre, V[f[0]], V[f[1]], V[f[2]]).point).norm() > turn_radius) continue;
-      const Vec3 n = (V[f[1]] - V[f[0]]).cross(V[f[2]] - V[f[0]]);
-      if (!(n.squaredNorm() > 0)) continue;
-      normals.push_back(n.normalized());
-      centres.push_back((V[f[0]] + V[f[1]] + V[f[2]]) / 3);
+      const double d = (centre - geom::closest_on_triangle(centre, V[f[0]], V[f[1]], V[f[2]]).point).norm();
+      if (box2 <= band_ * band_) {
+        list.push_back(tris[q]);
+        best = std::min(best, d);
+      }
+      if (d > turn_radius || !has_normal[q]) continue;
+      normals.push_back(tri_normal[q]);
+      centres.push_back(tri_centre[q]);
     }
     // Over convex turns only: a straight edge over a hollow (the neck into the shoulders) stays out
     // of it.
     double turn = 1;
     for (std::size_t a = 0; a < normals.size(); ++a)
       for (std::size_t b = a + 1; b < normals.size(); ++b) {
+        const double cosine = normals[a].dot(normals[b]);
+        if (cosine >= turn) continue;  // would not lower it
         const Vec3 ab = centres[b] - centres[a];
         if (ab.dot(normals[a]) > 0 && ab.dot(normals[b]) < 0) continue;  // each in front of the other
-        turn = std::min(turn, normals[a].dot(normals[b]));
+        turn = cosine;
       }
     block->turn[c] = static_cast<float>(turn);
     if (!(best <= band_)) list.resize(before);

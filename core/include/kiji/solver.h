@@ -19,6 +19,13 @@
 
 namespace kiji {
 
+class Solver;
+namespace solver_detail {
+// Whether the body keeps the cloth's edges out as well as its vertices (on in every solver but the
+// drape's coarse copy, which keeps its vertices further out instead). Internal to the drape.
+void set_body_edges(Solver& solver, bool on);
+}  // namespace solver_detail
+
 enum class SolverModel { Xpbd, MassSpring };
 SolverModel parse_solver_model(const std::string& name);  // "xpbd" | "mass_spring"
 std::string solver_model_name(SolverModel model);
@@ -179,6 +186,7 @@ class Solver {
   StepReport last_step() const;
 
  private:
+  friend void solver_detail::set_body_edges(Solver& solver, bool on);
   SolverParams params_;
   const Body* body_ = nullptr;
   std::unique_ptr<BodyCollider> collider_;

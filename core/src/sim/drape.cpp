@@ -81,11 +81,13 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 // The drape itself: `steps` steps of the garment in one solver; progress from `done` to `done + share`.
+// body_edges: whether the body keeps the garment's edges out as well as its vertices.
 std::size_t step_garment(Garment& garment, const Body& body, const SolverParams& params, double dt, std::size_t steps,
                          const DrapeProgress& progress, double done, double share, bool& stopped,
-                         ClothMeasures* measures) {
+                         ClothMeasures* measures, bool body_edges = true) {
   Solver solver(params);
   solver.set_body(&body);
+  solver_detail::set_body_edges(solver, body_edges);
   std::size_t taken = 0;
   for (std::size_t i = 0; i < steps && !stopped; ++i) {
     solver.step(garment, dt);
@@ -265,6 +267,18 @@ DrapeResult drape(Garment& garment, const Body& body, const DrapeOptions& option
   const double edge = std::min(options.coarse_ratio * mean, kCoarsestEdge);
   if (normal != Vec3::Zero() && edge >= 1.5 * mean) {
     Garment coarse = coarse_copy(garment, edge);
+    // The copy falls kept off the body by its vertices alone, further out than its thickness:
+    // testing points along its long edges was three quarters of its time. An edge of length l sags
+    // l^2 / 8R below its chord over a surface of radius R, so with its ends that much further out its
+    // middle stays clear of the head's sides and the upper arms (R about 5 cm). It lands for its last
+    // kCopyLanding seconds at its own thickness, its edges kept out too: a copy left further out
+    // wraps the head in 3 % more cloth than the garment can lie in, and the garment's settle pressed
+    // that into folds (docs/benchmarks.md, "The copy kept off by its vertices").
+    constexpr double kCopyRadius = 0.05, kCopyLanding = 0.25;
+    const Material own_material = coarse.material();
+    Material raised = own_material;
+    raised.thickness += edge * edge / (8 * kCopyRadius);
+    coarse.set_material(raised);
     const Embedding at = embed(garment, coarse, normal);
     if (at.corners.empty()) return drape(garment, body, itself(options), progress);
     SolverParams params = options.solver;
@@ -274,7 +288,16 @@ DrapeResult drape(Garment& garment, const Body& body, const DrapeOptions& option
     const double coarse_work = double(coarse.mesh().number_of_vertices()) * params.substeps * coarse_steps;
     const double fine_work = double(garment.mesh().number_of_vertices()) * options.solver.substeps * fine_steps;
     done = coarse_work / (coarse_work + fine_work);
-    result.coarse_steps = step_garment(coarse, body, params, dt, coarse_steps, progress, 0, done, stopped, nullptr);
+    const std::size_t landing =
+        std::min(coarse_steps, static_cast<std::size_t>(std::llround(kCopyLanding * options.frame_rate)));
+    const double falling = done * double(coarse_steps - landing) / double(coarse_steps);
+    result.coarse_steps = step_garment(coarse, body, params, dt, coarse_steps - landing, progress, 0, falling,
+                                       stopped, nullptr, false);
+    if (!stopped) {
+      coarse.set_material(own_material);
+      result.coarse_steps +=
+          step_garment(coarse, body, params, dt, landing, progress, falling, done - falling, stopped, nullptr);
+    }
     result.coarse_vertices = coarse.mesh().number_of_vertices();
     for (Vertex v : garment.mesh().vertices()) {
       const auto& c = at.corners[v.idx()];

@@ -121,6 +121,8 @@ void SolverParams::validate() const {
           "a positive distance in metres, under 1 (cloth moving less than this is at rest)");
 }
 
+void solver_detail::set_body_edges(Solver& solver, bool on) { solver.state_->body_edges = on; }
+
 Solver::Solver(SolverParams params) : state_(std::make_unique<State>()) {
   params.validate();
   params_ = params;

@@ -206,6 +206,7 @@ struct SolverArrays {
   std::vector<PointPair> point_pairs;
   std::vector<int> point_held;  // this substep: the vertices of triangles a point pushed up
   std::vector<unsigned char> escaped;  // per vertex: moved further than a field cell in the substep
+  bool body_edges = true;  // solver_detail::set_body_edges
   std::vector<float> body_gap;  // per vertex: at least how far from the body it was (0: not known)
   std::vector<float> body_turn;  // per vertex: BodyField::turn of its cell (1 far from the body, -1 not known)
   std::vector<int> escapees;           // those vertices, in index order

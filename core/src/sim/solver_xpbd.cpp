@@ -598,7 +598,7 @@ void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const 
         auto edges = [&](int b, int e) {
           resolve_body_edges(s, *body, cs.e_i, cs.e_j, b, e, th, 0.5 * th, m.friction, e - b == cs.ne);
         };
-        run_ranges(*cs.e_ranges, s.e_kinds, edges);
+        if (s.body_edges) run_ranges(*cs.e_ranges, s.e_kinds, edges);
       }
       if (!s.point_pairs.empty())
         for (int i : s.point_held) s.held_up[i] = 1;

@@ -266,6 +266,34 @@ TEST(Drape, ACoarseCopyFallsAsTheGarmentWould) {
   }
 }
 
+// The coarse copy is kept off the body by its vertices alone, further out than the cloth's
+// thickness, so that its long edges do not cut into the body between them. The garment as the
+// copy leaves it (no settle of its own) has no vertex and no edge's middle inside the body, over
+// the head, the shoulders and the upper arms it lands on.
+TEST(Drape, ACoarseCopyKeepsItsEdgesOutOfTheBody) {
+  const Body body = Body::load(Body::default_path());
+  const BodyCollider collider(body);
+  Garment g = make_rectangle_spaced(1.4, 1.0, 0.01, Material::preset("cotton"));
+  place_over_body(g, body);
+  DrapeOptions options;
+  options.seconds = 2.0;
+  options.fine_seconds = 0;
+  const DrapeResult r = drape(g, body, options);
+  ASSERT_GT(r.coarse_vertices, 0u);
+  EXPECT_EQ(r.steps, 0u) << "the garment as the copy left it";
+  std::size_t inside = 0, near = 0;
+  for (Vertex v : g.mesh().vertices()) {
+    inside += collider.inside(g.position(v));
+    near += collider.closest(g.position(v), 0.02).hit;
+  }
+  for (Edge e : g.mesh().edges()) {
+    const Halfedge h = g.mesh().halfedge(e);
+    inside += collider.inside(0.5 * (g.position(g.mesh().source(h)) + g.position(g.mesh().target(h))));
+  }
+  EXPECT_GT(near, g.mesh().number_of_vertices() / 20) << "the copy landed on the body";
+  EXPECT_EQ(inside, 0u) << "vertices and edge middles inside the body";
+}
+
 // A pattern with a hole (a neck opening cut before the drape): each of its vertices takes its place
 // from the coarse copy's triangle around it, none from a triangle across the hole, so no edge comes
 // out stretched, and the garment has its hole, its vertices and its material as before.

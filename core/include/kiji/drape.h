@@ -32,7 +32,7 @@ struct DrapeOptions {
   // edges `coarse_ratio` times as long (a ninth of the vertices at 3), but no longer than 4 cm, at
   // `coarse_substeps`, for all but the last `fine_seconds`; the garment then takes the copy's shape and velocity and
   // settles at its own resolution and `solver`, its damping raised to at least `fine_damping`
-  // (per second) meanwhile. The default cloth drapes in about a quarter of the time, as
+  // (per second) meanwhile. The default cloth drapes in about a fifth of the time, as
   // unstretched (docs/benchmarks.md, "The drape, coarse first"). 1 drapes the garment itself
   // throughout; so is a garment that is not flat, is pinned, has under 2,000 vertices or whose
   // edges are over 2.7 cm (a copy could not be half as fine again).

@@ -100,6 +100,20 @@ def test_a_drape_without_a_body_changes_nothing():
     assert s.solver_params.substeps == 10
 
 
+def test_a_new_garment_through_the_body_is_refused_until_placed_over_it():
+    # kiji.rectangle stands upright at the origin, through the body's legs: draped there, its edges
+    # held it through them. The drape says what to do, and the garment is as it was.
+    body = kiji.Body.load(MRFIXIT)
+    g = _cloth_of(1.2, 1.0, 0.03)
+    before = g.positions
+    with pytest.raises(kiji.InputError, match="inside the body.*place_over_body"):
+        kiji.drape(g, body, seconds=0.5)
+    assert np.array_equal(g.positions, before)
+    kiji.place_over_body(g, body)
+    r = kiji.drape(g, body, seconds=0.5)
+    assert r.steps == 30 and r.measures.max_penetration == 0
+
+
 def test_kiji_drape_kiji_drape_in_python_and_session_drape_are_one_drape(tmp_path):
     # A rounded body (Loop subdivision at import), whose points the solver collides with the cloth:
     # a session's body, carried as bytes like a journal's or a peer's, must drape as the loaded one.

@@ -1,5 +1,7 @@
 #include "kiji/drape.h"
 
+#include "base/parallel.h"
+#include "kiji/collision.h"
 #include "kiji/error.h"
 
 #include <CGAL/Polygon_mesh_processing/remesh.h>
@@ -238,12 +240,41 @@ DrapeOptions itself(DrapeOptions options) {
   return options;
 }
 
+// A drape lets a garment fall onto the body from outside it. One that starts through the body (not
+// placed over it: a new rectangle stands upright at the origin, through the legs) is held there by
+// its edges and torn apart. A vertex deeper in than the cloth's thickness went through the surface
+// (the solver keeps the cloth within it); a few such, snagged by a tool's pull, are let be.
+void require_outside(const Garment& garment, const Body& body) {
+  std::vector<Vertex> vertices(garment.mesh().vertices().begin(), garment.mesh().vertices().end());
+  const Box3 box = body.bounds();
+  const double depth = garment.material().thickness;
+  const BodyCollider collider(body);
+  std::vector<char> deep(vertices.size(), 0);
+  parallel::for_range(static_cast<int>(vertices.size()), 256, [&](int b, int e) {
+    for (int k = b; k < e; ++k) {
+      const Vec3 p = garment.position(vertices[k]);
+      deep[k] = box.contains(p) && collider.inside(p) && !collider.closest(p, depth).hit;
+    }
+  });
+  const auto inside = static_cast<std::size_t>(std::count(deep.begin(), deep.end(), 1));
+  if (inside * 1000 <= vertices.size()) return;
+  const Vec3 first = garment.position(vertices[std::find(deep.begin(), deep.end(), 1) - deep.begin()]);
+  std::ostringstream msg;
+  msg << "drape: " << inside << " of the garment's " << vertices.size()
+      << " vertices start inside the body, deeper than the cloth's thickness (the first at " << first.x() << ", "
+      << first.y() << ", " << first.z()
+      << " m): a drape lets a garment fall onto the body from outside it; place it over the body first "
+         "(place_over_body, kiji.place_over_body)";
+  throw InputError(msg.str());
+}
+
 }  // namespace
 
 DrapeResult drape(Garment& garment, const Body& body, const DrapeOptions& options,
                   const DrapeProgress& progress) {
   options.validate();
   garment.validate();
+  require_outside(garment, body);
   const double dt = 1.0 / options.frame_rate;
   const auto steps = static_cast<std::size_t>(std::llround(options.seconds * options.frame_rate));
   auto fine_steps = std::min(steps, static_cast<std::size_t>(std::llround(options.fine_seconds * options.frame_rate)));

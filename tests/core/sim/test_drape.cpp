@@ -398,3 +398,29 @@ TEST(Drape, BadCoarseOptionsSayWhatToGive) {
   o.fine_damping = std::numeric_limits<double>::infinity();
   EXPECT_NE(refused(o).find("fine_damping is inf"), std::string::npos) << refused(o);
 }
+
+// A new rectangle stands upright at the origin, through the body's legs. Draped there (on another
+// scanned figure, BCN_Epileptic.X) it was held through them by its edges and torn apart, one edge at
+// 15 times its length: the drape refuses it, says where and what to do, and leaves it as it was;
+// placed over the body, it drapes.
+TEST(Drape, AGarmentThroughTheBodyIsRefusedUntilPlaced) {
+  const Body body = Body::load(Body::default_path());
+  Garment g = make_rectangle(0.6, 0.6, 31, 31);
+  const Garment before = g;
+  DrapeOptions o;
+  o.seconds = 0.25;
+  std::string message = "accepted";
+  try {
+    drape(g, body, o);
+  } catch (const InputError& e) {
+    message = e.what();
+  }
+  EXPECT_NE(message.find("vertices start inside the body"), std::string::npos) << message;
+  EXPECT_NE(message.find("place_over_body"), std::string::npos) << message;
+  for (Vertex v : g.mesh().vertices()) ASSERT_EQ(g.position(v), before.position(v));
+
+  place_over_body(g, body);
+  const DrapeResult r = drape(g, body, o);
+  EXPECT_EQ(r.steps, 15u);
+  EXPECT_EQ(r.measures.max_penetration, 0.0);
+}

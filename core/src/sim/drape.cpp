@@ -268,13 +268,9 @@ void require_outside(const Garment& garment, const Body& body) {
   throw InputError(msg.str());
 }
 
-}  // namespace
-
-DrapeResult drape(Garment& garment, const Body& body, const DrapeOptions& options,
-                  const DrapeProgress& progress) {
-  options.validate();
-  garment.validate();
-  require_outside(garment, body);
+// The drape of a garment and options already checked (drape, below).
+DrapeResult drape_checked(Garment& garment, const Body& body, const DrapeOptions& options,
+                          const DrapeProgress& progress) {
   const double dt = 1.0 / options.frame_rate;
   const auto steps = static_cast<std::size_t>(std::llround(options.seconds * options.frame_rate));
   auto fine_steps = std::min(steps, static_cast<std::size_t>(std::llround(options.fine_seconds * options.frame_rate)));
@@ -311,7 +307,7 @@ DrapeResult drape(Garment& garment, const Body& body, const DrapeOptions& option
     raised.thickness += edge * edge / (8 * kCopyRadius);
     coarse.set_material(raised);
     const Embedding at = embed(garment, coarse, normal);
-    if (at.corners.empty()) return drape(garment, body, itself(options), progress);
+    if (at.corners.empty()) return drape_checked(garment, body, itself(options), progress);
     SolverParams params = options.solver;
     params.substeps = options.coarse_substeps;
     const std::size_t coarse_steps = steps - fine_steps;
@@ -366,6 +362,16 @@ DrapeResult drape(Garment& garment, const Body& body, const DrapeOptions& option
   result.seconds_simulated += double(result.steps) * dt;
   result.wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
   return result;
+}
+
+}  // namespace
+
+DrapeResult drape(Garment& garment, const Body& body, const DrapeOptions& options,
+                  const DrapeProgress& progress) {
+  options.validate();
+  garment.validate();
+  require_outside(garment, body);
+  return drape_checked(garment, body, options, progress);
 }
 
 }  // namespace kiji

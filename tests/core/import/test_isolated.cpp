@@ -33,9 +33,13 @@ std::string tmp_path(const std::string& name) {
   return std::string(KIJI_TEST_TMP) + "/isolation_" + name;
 }
 
+// Written beside and renamed into place: ctest runs this file's tests in parallel processes, and two
+// that share a file (the grid) must never read it half written by the other.
 std::string write_file(const std::string& name, const std::string& text) {
   const std::string path = tmp_path(name);
-  std::ofstream(path, std::ios::binary) << text;
+  const std::string part = path + ".part" + std::to_string(::getpid());
+  std::ofstream(part, std::ios::binary) << text;
+  std::filesystem::rename(part, path);
   return path;
 }
 

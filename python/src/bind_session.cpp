@@ -404,18 +404,21 @@ void bind_session(py::module_& m) {
   }, py::arg("seconds"), py::kw_only(), py::arg("progress") = py::none(),
         "Simulates `seconds` of time with the GIL released. progress(fraction) is called after every step\n"
         "and may return False to stop; Ctrl-C raises KeyboardInterrupt (the steps done are kept).");
-  s.def("drape", [](Session& self, double seconds, bool place, double clearance, const py::object& progress) {
+  s.def("drape", [](Session& self, double seconds, bool place, double clearance, const py::object& progress,
+                    bool coarse) {
     SessionGuard lock(self);
     const ProgressHook hook(progress);
     py::gil_scoped_release nogil;
-    self.drape(seconds, [&](double fraction) { return hook(fraction); }, place, clearance);
+    return self.drape(seconds, [&](double fraction) { return hook(fraction); }, place, clearance, coarse);
   }, py::arg("seconds") = 3.0, py::kw_only(), py::arg("place") = true, py::arg("clearance") = 0.02,
-     py::arg("progress") = py::none(),
+     py::arg("progress") = py::none(), py::arg("coarse") = true,
      "Lays every garment over the body (place=True) and lets it fall and settle for `seconds`, with the\n"
      "session's solver settings at the drape's substeps (as `kiji drape`: 40 a step, where interactive\n"
-     "work uses 10); a paused session runs for it. Then the session's own settings and pause come back.\n"
-     "Each change is journaled. Each garment falls itself throughout, where kiji.drape lets a flat\n"
-     "garment of 2,000 vertices or more fall first as a coarse copy.");
+     "work uses 10). Returns a kiji.DrapeResult for each garment.\n"
+     "Where every garment is one kiji.drape lets fall as a coarse copy first (flat, at rest, unpinned,\n"
+     "2,000 vertices or more) and coarse=True, each is draped so and set back as one journaled change:\n"
+     "the clock and the pause are left as they were. Otherwise the session steps for it (a paused\n"
+     "session runs, then pauses again) and its clock moves by `seconds`. Each change is journaled.");
   s.def("measure", [](Session& self, std::size_t i) {
     SessionGuard lock(self);
     return self.solver(i).measure(self.garment(i));

@@ -294,6 +294,21 @@ void bind_solver(py::module_& m) {
                ", coarse_steps=" + std::to_string(r.coarse_steps) + ", wall_seconds=" + std::to_string(r.wall_seconds) +
                ")";
       });
+  m.def("drapes_coarse",
+        [](std::shared_ptr<GarmentRef> g, double seconds, double frame_rate, double coarse_ratio, double fine_seconds) {
+          if (!g) throw py::type_error("drapes_coarse: expected a kiji.Garment");
+          DrapeOptions o;
+          o.seconds = seconds;
+          o.frame_rate = frame_rate;
+          o.coarse_ratio = coarse_ratio;
+          o.fine_seconds = fine_seconds;
+          const auto guard = g->guard();
+          return drapes_coarse(g->get(), o);
+        },
+        py::arg("garment"), py::kw_only(), py::arg("seconds") = 3.0, py::arg("frame_rate") = 60.0,
+        py::arg("coarse_ratio") = DrapeOptions{}.coarse_ratio, py::arg("fine_seconds") = DrapeOptions{}.fine_seconds,
+        "Whether kiji.drape (and Session.drape) lets this garment fall as a coarse copy first with these\n"
+        "options: a flat garment at rest, unpinned, of 2,000 vertices or more, draped longer than fine_seconds.");
   m.def("drape",
         [](std::shared_ptr<GarmentRef> g, std::shared_ptr<Body> body, double seconds, double frame_rate,
            std::optional<SolverParams> solver, double coarse_ratio, int coarse_substeps, double fine_seconds,

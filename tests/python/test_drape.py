@@ -163,3 +163,59 @@ def test_a_cloth_draped_on_a_t_pose_character_rests_on_its_head_and_shoulders():
     lo, hi = body.bounds
     shoulders = lo[1] + 0.75 * (hi[1] - lo[1])
     assert np.percentile(cloth.positions[:, 1], 90) > shoulders, "hanging from the head, not on the floor"
+
+
+def _fine_cloth():
+    # 2,214 vertices: enough for a drape to let it fall as a coarse copy first.
+    return _cloth_of(0.8, 0.6, 0.015)
+
+
+def test_a_new_flat_garment_drapes_coarse_first_as_one_change_that_undo_takes_back():
+    body = kiji.Body.default()
+    alone = _fine_cloth()
+    assert alone.vertex_count >= 2000
+    kiji.place_over_body(alone, body)
+    placed = alone.positions
+    expected = kiji.drape(alone, body, seconds=1.0)
+    assert expected.coarse_vertices > 0
+
+    s = kiji.Session(body=body)
+    g = s.add_garment(_fine_cloth())
+    s.simulating = False  # as in Kiji Studio: paused to arrange things, then draped
+    kinds = [op.kind for op in s.operations]
+    assert kiji.drapes_coarse(g, seconds=1.0) and not kiji.drapes_coarse(g, seconds=0.5)
+    results = s.drape(seconds=1.0)
+    assert len(results) == 1 and results[0].coarse_vertices == expected.coarse_vertices
+    assert np.array_equal(g.positions, alone.positions), "kiji.drape's drape, bit for bit"
+    assert results[0].measures.max_strain == expected.measures.max_strain < 0.07
+    assert results[0].measures.max_penetration == 0
+    # Laid over the body, then the draped garment: two changes; the clock, the pause and the
+    # interactive settings as they were.
+    assert [op.kind for op in s.operations] == kinds + ["set_garment", "set_garment"]
+    assert s.time == 0 and not s.simulating and s.solver_params.substeps == 10
+    assert not kiji.drapes_coarse(g), "draped, it is no longer flat: a drape again steps it"
+    s.undo()
+    assert np.array_equal(g.positions, placed), "undo takes the drape back to the garment laid over the body"
+
+    # The same garment stepped by the session instead: the clock moves the drape's second.
+    stepped = kiji.Session(body=body)
+    h = stepped.add_garment(_fine_cloth())
+    r = stepped.drape(seconds=1.0, coarse=False)
+    assert r[0].coarse_vertices == 0 and r[0].steps == 60
+    assert stepped.time == pytest.approx(1.0)
+    assert r[0].measures.max_strain < 0.07 and r[0].measures.max_penetration == 0
+    assert not np.array_equal(h.positions, g.positions)
+
+
+def test_a_coarse_drape_refuses_a_garment_through_the_body_and_changes_nothing():
+    body = kiji.Body.load(MRFIXIT)
+    s = kiji.Session(body=body)
+    g = s.add_garment(_cloth_of(1.2, 1.0, 0.02))  # upright at the origin, through the legs
+    assert g.vertex_count >= 2000
+    before, ops = g.positions, len(s.operations)
+    with pytest.raises(kiji.InputError, match="inside the body.*place_over_body"):
+        s.drape(seconds=1.0, place=False)
+    assert np.array_equal(g.positions, before) and len(s.operations) == ops and s.time == 0
+    # Laid over the body by the drape itself, it falls.
+    r = s.drape(seconds=1.0)
+    assert r[0].coarse_vertices > 0 and r[0].measures.max_penetration == 0

@@ -56,6 +56,11 @@ struct DrapeResult {
 // Called after each step with the fraction done; return false to stop early.
 using DrapeProgress = std::function<bool(double fraction)>;
 
+// Whether drape() lets this garment fall as a coarse copy first with these options (a flat garment at
+// rest, unpinned, of 2,000 vertices or more, draped for longer than fine_seconds). Throws
+// InputError for bad options.
+bool drapes_coarse(const Garment& garment, const DrapeOptions& options = {});
+
 // Simulates the garment on the body for options.seconds (coarse first where DrapeOptions says).
 // Throws InputError for bad options.
 DrapeResult drape(Garment& garment, const Body& body, const DrapeOptions& options = {},

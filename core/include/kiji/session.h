@@ -7,6 +7,7 @@
 #pragma once
 
 #include "kiji/body.h"
+#include "kiji/drape.h"
 #include "kiji/garment.h"
 #include "kiji/journal.h"
 #include "kiji/operation.h"
@@ -73,17 +74,23 @@ class Session {
   // Whether time steps the cloth (false: tools still edit, nothing falls; the clock runs).
   bool simulating() const { return simulating_; }
   void set_simulating(bool simulating);
-  // Lets the garments fall and settle on the body for `seconds` (0 to 3600): each laid over the
-  // body first (place_over_body, when `place`), then stepped with the session's own solver settings
-  // at the drape's substeps (at least DrapeOptions's), a paused session running for it; the
-  // settings and the pause come back after. Every change is a journaled operation. The garments
-  // fall themselves, never as a coarse copy: for one garment and default settings it gives what
-  // kiji::drape gives with coarse_ratio 1 (or to a garment under 2,000 vertices), bit for bit.
-  // `progress` (after each step, with the fraction done) may return false to stop early. Throws
-  // InputError when `place` and there is no body (without one and not placed, the garments settle
-  // under their pins).
-  void drape(double seconds, const std::function<bool(double)>& progress = {}, bool place = true,
-             double clearance = 0.02);
+  // Lets the garments fall and settle on the body for `seconds` (0 to 3600), each laid over the
+  // body first (place_over_body, when `place`), with the session's own solver settings at the
+  // drape's substeps (at least DrapeOptions's).
+  // - `coarse` and every garment one that kiji::drape lets fall as a coarse copy first (flat, at
+  //   rest, unpinned, 2,000 vertices or more, and `seconds` over DrapeOptions::fine_seconds; a body
+  //   set): each is draped so, alone on the body as the session steps it, and set back as one
+  //   operation (set_garment); the clock, the settings and the pause are left as they were. A
+  //   garment that starts through the body is refused (InputError) before any is changed.
+  // - Otherwise the session steps: a paused session runs for it, the settings and the pause come
+  //   back after, and the clock moves by `seconds`. For one garment and default settings it gives
+  //   what kiji::drape gives with coarse_ratio 1, bit for bit.
+  // Every change is a journaled operation. `progress` (with the fraction done) may return false to
+  // stop early: the garments are left where the drape had brought them. Returns what each garment's
+  // drape did. Throws InputError when `place` and there is no body (without one and not placed, the
+  // garments settle under their pins).
+  std::vector<DrapeResult> drape(double seconds, const std::function<bool(double)>& progress = {}, bool place = true,
+                                 double clearance = 0.02, bool coarse = true);
 
   // --- picking ---
   // The cloth under a pointer: the nearest surface point within pick_radius() of `position`, or

@@ -10,6 +10,7 @@
 #include "session/stroke_context.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -176,7 +177,8 @@ void Session::sew_met_tacks(std::size_t i) {
   if (close_tacks(g, within) == 0) tacks_tried_[i] = tried;
 }
 
-void Session::drape(double seconds, const std::function<bool(double)>& progress, bool place, double clearance) {
+std::vector<DrapeResult> Session::drape(double seconds, const std::function<bool(double)>& progress, bool place,
+                                        double clearance, bool coarse) {
   if (place && !body_) throw InputError("drape: the session has no body to lay the garments over: set one first");
   if (!std::isfinite(seconds) || seconds < 0 || seconds > max_advance_seconds)
     throw InputError("drape: seconds must be from 0 to 3600");
@@ -189,6 +191,30 @@ void Session::drape(double seconds, const std::function<bool(double)>& progress,
   const SolverParams own = solver_params_;
   SolverParams draping = own;
   draping.substeps = std::max(own.substeps, DrapeOptions{}.solver.substeps);
+  DrapeOptions options;
+  options.seconds = seconds;
+  options.frame_rate = frame_rate_;
+  options.solver = draping;
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<DrapeResult> results(garments_.size());
+
+  bool all_coarse = coarse && seconds > 0 && body_ && !garments_.empty();
+  for (std::size_t i = 0; all_coarse && i < garments_.size(); ++i) all_coarse = drapes_coarse(garments_[i], options);
+  if (all_coarse) {
+    // Each garment has a solver of its own in the session, so each drapes alone as it would fall here.
+    // All are draped before any is set, so that a refusal changes nothing.
+    std::vector<Garment> draped(garments_.begin(), garments_.end());
+    bool stopped = false;
+    for (std::size_t i = 0; i < draped.size() && !stopped; ++i)
+      results[i] = kiji::drape(draped[i], *body_, options, [&](double f) {
+        stopped = progress && !progress((double(i) + f) / double(draped.size()));
+        return !stopped;
+      });
+    for (std::size_t i = 0; i < draped.size(); ++i)
+      if (results[i].seconds_simulated > 0) set_garment(i, draped[i]);
+    return results;
+  }
+
   const bool paused = !simulating_;
   set_solver_params(draping);
   if (paused) set_simulating(true);
@@ -196,10 +222,12 @@ void Session::drape(double seconds, const std::function<bool(double)>& progress,
     set_solver_params(own);
     if (paused) set_simulating(false);
   };
+  std::size_t taken = 0;
   try {
     const auto steps = static_cast<std::size_t>(std::llround(seconds * frame_rate_));
     for (std::size_t i = 0; i < steps; ++i) {
       step();
+      ++taken;
       if (progress && !progress(double(i + 1) / double(steps))) break;
     }
   } catch (...) {
@@ -207,6 +235,14 @@ void Session::drape(double seconds, const std::function<bool(double)>& progress,
     throw;
   }
   restore();
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  for (std::size_t i = 0; i < garments_.size(); ++i) {
+    results[i].seconds_simulated = double(taken) / frame_rate_;
+    results[i].wall_seconds = wall;
+    results[i].steps = taken;
+    results[i].measures = solvers_[i]->measure(garments_[i]);
+  }
+  return results;
 }
 
 void Session::advance_to(double t) {

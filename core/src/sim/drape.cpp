@@ -235,6 +235,29 @@ Embedding embed(const Garment& fine, const Garment& coarse, const Vec3& normal) 
   return out;
 }
 
+// The coarse copy's edge length for this garment and these options, and the garment's plane's
+// normal; 0 where the garment falls itself throughout.
+double coarse_edge(const Garment& garment, const DrapeOptions& options, Vec3& normal) {
+  normal = Vec3::Zero();
+  const auto steps = std::llround(options.seconds * options.frame_rate);
+  const auto fine_steps = std::min(steps, std::llround(options.fine_seconds * options.frame_rate));
+  // A coarse copy only where it is worth its remeshing: some thousands of vertices to stand for.
+  constexpr std::size_t kCoarseFrom = 2000;
+  if (options.coarse_ratio <= 1 || fine_steps >= steps || garment.mesh().number_of_vertices() < kCoarseFrom)
+    return 0;
+  normal = flat_at_rest(garment);
+  if (normal == Vec3::Zero()) return 0;
+  // The copy's edges: coarse_ratio times the garment's, at most 4 cm. Coarser, a copy misses the
+  // shape of the head and shoulders it lands on, and the garment comes out of it still moving (a 2 cm
+  // cloth from a 6 cm copy kept seven times the kinetic energy it kept from a 4 cm one).
+  constexpr double kCoarsestEdge = 0.04;
+  double mean = 0;
+  for (Edge e : garment.mesh().edges()) mean += garment.rest_length(e);
+  mean /= double(std::max<std::size_t>(1, garment.mesh().number_of_edges()));
+  const double edge = std::min(options.coarse_ratio * mean, kCoarsestEdge);
+  return edge >= 1.5 * mean ? edge : 0;
+}
+
 DrapeOptions itself(DrapeOptions options) {
   options.coarse_ratio = 1;
   return options;
@@ -278,21 +301,9 @@ DrapeResult drape_checked(Garment& garment, const Body& body, const DrapeOptions
   const auto start = Clock::now();
   bool stopped = false;
   double done = 0;
-  // A coarse copy only where it is worth its remeshing: some thousands of vertices to stand for.
-  constexpr std::size_t kCoarseFrom = 2000;
-  const Vec3 normal = options.coarse_ratio > 1 && fine_steps < steps &&
-                              garment.mesh().number_of_vertices() >= kCoarseFrom
-                          ? flat_at_rest(garment)
-                          : Vec3::Zero();
-  // The copy's edges: coarse_ratio times the garment's, at most 4 cm. Coarser, a copy misses the
-  // shape of the head and shoulders it lands on, and the garment comes out of it still moving (a 2 cm
-  // cloth from a 6 cm copy kept seven times the kinetic energy it kept from a 4 cm one).
-  constexpr double kCoarsestEdge = 0.04;
-  double mean = 0;
-  for (Edge e : garment.mesh().edges()) mean += garment.rest_length(e);
-  mean /= double(std::max<std::size_t>(1, garment.mesh().number_of_edges()));
-  const double edge = std::min(options.coarse_ratio * mean, kCoarsestEdge);
-  if (normal != Vec3::Zero() && edge >= 1.5 * mean) {
+  Vec3 normal;
+  const double edge = coarse_edge(garment, options, normal);
+  if (edge > 0) {
     Garment coarse = coarse_copy(garment, edge);
     // The copy falls kept off the body by its vertices alone, further out than its thickness:
     // testing points along its long edges was three quarters of its time. An edge of length l sags
@@ -365,6 +376,12 @@ DrapeResult drape_checked(Garment& garment, const Body& body, const DrapeOptions
 }
 
 }  // namespace
+
+bool drapes_coarse(const Garment& garment, const DrapeOptions& options) {
+  options.validate();
+  Vec3 normal;
+  return coarse_edge(garment, options, normal) > 0;
+}
 
 DrapeResult drape(Garment& garment, const Body& body, const DrapeOptions& options,
                   const DrapeProgress& progress) {

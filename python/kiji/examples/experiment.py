@@ -302,7 +302,10 @@ def run_experiment(settings: Settings = Settings()) -> Result:
             stage_pictures.append(s.render(camera=stage_camera, width=stage_size[0], height=stage_size[1]))
 
     # 1. Drape.
-    s.drape(seconds=st.drape_seconds)
+    # The tunic falls itself, step by step: its checks hold at the drape lengths measured so
+    # (docs/benchmarks.md). Draped coarse first instead, at 2.8 s, its hem came out 11.7 cm out of
+    # level and its largest strain 11.6 %, in 1.8 s against 5.5.
+    s.drape(seconds=st.drape_seconds, coarse=False)
     _say(st, f"  1. draped: {st.drape_seconds:g} s on the body")
     stage_done("drape")
 

@@ -877,21 +877,29 @@ class StudioTest : public QObject {
     QVERIFY(view.camera().pitch > 1.5);
     panel.choose("cut");
     QTest::qWait(100);
-    // Round the head, inside the cloth that covers it as seen from above (it hangs down either side).
-    const Box3 cap = with_session([&](Session& s) {
-      Box3 b;
+    // Round the head, inside the cloth that covers it as seen from above (it hangs down either side):
+    // as the eye finds it, each point of the ring on the cap over the crown (within 6 cm of its
+    // height), drawn in towards the crown where the cap is narrower than its bounds.
+    const std::vector<Vec3> loop = with_session([&](Session& s) {
+      Box3 cap;
       const Garment& g = s.garment(0);
       for (Vertex v : g.mesh().vertices())
-        if (g.position(v).y() > crown.y() - 0.06) b.extend(g.position(v));
-      return b;
+        if (g.position(v).y() > crown.y() - 0.06) cap.extend(g.position(v));
+      const double rx = 0.8 * std::min(crown.x() - cap.min().x(), cap.max().x() - crown.x());
+      const double rz = 0.8 * std::min(crown.z() - cap.min().z(), cap.max().z() - crown.z());
+      std::vector<Vec3> points;
+      for (int i = 0; i <= 40; ++i) {
+        const double a = 2 * 3.14159265358979323846 * (i % 40) / 40;
+        Vec3 p;
+        for (double scale = 1; scale > 0.45; scale -= 0.025) {
+          p = Vec3(crown.x() + scale * rx * std::cos(a), crown.y(), crown.z() + scale * rz * std::sin(a));
+          const SurfaceHit h = s.pick(p + Vec3(0, 0.5, 0), Vec3(0, -1, 0));
+          if (h.hit && h.point.y() > crown.y() - 0.06) break;
+        }
+        points.push_back(p);
+      }
+      return points;
     });
-    const double rx = 0.8 * std::min(crown.x() - cap.min().x(), cap.max().x() - crown.x());
-    const double rz = 0.8 * std::min(crown.z() - cap.min().z(), cap.max().z() - crown.z());
-    std::vector<Vec3> loop;
-    for (int i = 0; i <= 40; ++i) {
-      const double a = 2 * 3.14159265358979323846 * i / 40;
-      loop.emplace_back(crown.x() + rx * std::cos(a), crown.y(), crown.z() + rz * std::sin(a));
-    }
     QStringList round = QStringList{"mousemove"} + screen(loop.front());
     round << "sleep" << "0.05" << "mousedown" << "1" << "sleep" << "0.05";
     // 60 ms apart, the app takes every move (at 20 ms it took 23-34 of them, as the machine was
@@ -1270,6 +1278,32 @@ class StudioTest : public QObject {
     QTest::qWait(50);
     QVERIFY2(window_->statusBar()->currentMessage().contains("is paused again"),
              qPrintable(window_->statusBar()->currentMessage()));
+  }
+
+  void a_new_garment_drapes_coarse_first_as_one_change_that_undo_takes_back() {
+    QVERIFY(studio_->open_body(QString::fromStdString(Body::default_path()), {}));
+    QVERIFY(studio_->add_garment(GarmentSpec{}));  // 1 x 1 m, 2 cm apart: 2,601 vertices, laid over the body
+    studio_->set_simulating(false);
+    QVERIFY(wait_until([&] { return studio_->frame() && !studio_->frame()->simulating && studio_->frame()->vertices > 0; }));
+    auto depth = [&] { return with_session([](Session& s) { return s.garment(0).bounds().sizes().y(); }); };
+    QVERIFY(depth() < 0.01);  // flat
+    studio_->drape(2.0);
+    QVERIFY(wait_until([&] { return !studio_->draping(); }, 60000));
+    QTest::qWait(50);
+    const QString said = window_->statusBar()->currentMessage();
+    QVERIFY2(said.contains("Draped for 2.00 s") && said.contains("a coarse copy of"), qPrintable(said));
+    // It hangs down about the body, unstretched and outside it, and the simulation is still paused.
+    QVERIFY2(depth() > 0.3, qPrintable(QString("the draped cloth is %1 m deep").arg(depth())));
+    const ClothMeasures m = with_session([](Session& s) { return s.solver(0).measure(s.garment(0)); });
+    QVERIFY2(m.max_strain < 0.07 && m.max_penetration == 0,
+             qPrintable(QString("largest strain %1, deepest inside %2 m").arg(m.max_strain).arg(m.max_penetration)));
+    QVERIFY(!studio_->frame()->simulating);
+    QVERIFY(with_session([](Session& s) {
+      return std::holds_alternative<op::SetGarment>(s.journal().operations().back().data);
+    }));
+    // One change: undone, the cloth lies flat over the body again.
+    studio_->undo();
+    QVERIFY(wait_until([&] { return depth() < 0.01; }));
   }
 
   void error_messages_share_one_box_instead_of_stacking() {

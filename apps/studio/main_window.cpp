@@ -344,12 +344,16 @@ void MainWindow::build_menus() {
   run_action_ = sim->addAction("&Run", QKeySequence(Qt::Key_Space), this, [this](bool on) { studio_.set_simulating(on); });
   run_action_->setCheckable(true);
   run_action_->setChecked(true);
-  sim->addAction("&Drape...", this, [this] {
-    bool ok = false;
-    const double s = QInputDialog::getDouble(this, "Drape", "Simulated seconds to let the garments fall and settle:",
-                                             3.0, 0.1, 60, 1, &ok);
-    if (ok) studio_.drape(s);
-  });
+  // A new garment drapes coarse first, in seconds; step by step it falls as the session steps it
+  // throughout, a few times as long, and lands with less of the stretch the copy's landing leaves.
+  for (const bool coarse : {true, false})
+    sim->addAction(coarse ? "&Drape..." : "Drape step by step...", this, [this, coarse] {
+      bool ok = false;
+      const double s = QInputDialog::getDouble(this, coarse ? "Drape" : "Drape step by step",
+                                               "Simulated seconds to let the garments fall and settle:", 3.0, 0.1, 60, 1,
+                                               &ok);
+      if (ok) studio_.drape(s, coarse);
+    });
   sim->addAction("Stop draping", this, [this] { studio_.cancel_drape(); });
   sim->addAction("R&eset", this, [this] {
     if (QMessageBox::question(this, "Reset", "Put the scene back as it was set up? Every stroke is dropped.") ==

@@ -490,7 +490,7 @@ bool Studio::simulating() const {
   return f ? f->simulating : true;
 }
 
-void Studio::drape(double seconds) {
+void Studio::drape(double seconds, bool coarse) {
   if (peer_) {
     emit message("Draping is not shared with the peers: leave the session to drape, or let the shared clock run", true);
     return;
@@ -498,7 +498,7 @@ void Studio::drape(double seconds) {
   if (draping_.exchange(true)) return;
   cancel_drape_ = false;
   SimulationLoop* loop = loop_.get();
-  loop->post([this, loop, seconds](Session& s) {
+  loop->post([this, loop, seconds, coarse](Session& s) {
     struct Done {
       std::atomic<bool>& flag;
       ~Done() { flag = false; }
@@ -518,22 +518,22 @@ void Studio::drape(double seconds) {
         });
       }
       return !cancel_drape_.load() && !loop->stop_requested();
-    }, /*place=*/false);
+    }, /*place=*/false, 0.02, coarse);
     double simulated = s.time() - start, wall = 0;
-    std::size_t coarse = 0;
+    std::size_t copied = 0;
     for (const DrapeResult& r : results) {
       if (r.coarse_vertices) simulated = std::max(simulated, r.seconds_simulated);
-      coarse += r.coarse_vertices;
+      copied += r.coarse_vertices;
       wall += r.coarse_vertices ? r.wall_seconds : 0;
     }
-    if (!coarse && !results.empty()) wall = results.front().wall_seconds;
+    if (!copied && !results.empty()) wall = results.front().wall_seconds;
     const bool paused = !s.simulating();
-    QMetaObject::invokeMethod(this, [this, simulated, paused, coarse, wall] {
+    QMetaObject::invokeMethod(this, [this, simulated, paused, copied, wall] {
       emit message(QString("Draped for %1 s of simulated time in %2 s%3%4")
                        .arg(simulated, 0, 'f', 2)
                        .arg(wall, 0, 'f', 1)
-                       .arg(coarse ? QString(" (a coarse copy of %1 vertices first)").arg(coarse) : QString())
-                       .arg(paused && !coarse ? " (the simulation ran for it, and is paused again)" : ""),
+                       .arg(copied ? QString(" (a coarse copy of %1 vertices first)").arg(copied) : QString())
+                       .arg(paused && !copied ? " (the simulation ran for it, and is paused again)" : ""),
                    false);
     });
   }, "drape");

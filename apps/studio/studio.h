@@ -99,8 +99,9 @@ class Studio : public QObject {
   void set_simulating(bool on);
   bool simulating() const;
   // Lets the garments fall and settle on the body for `seconds` of simulated time, with the drape's
-  // finer solver settings, as fast as the machine goes; frames show it.
-  void drape(double seconds);
+  // finer solver settings, as fast as the machine goes (Session::drape): a new garment coarse first
+  // when `coarse`, as one change; otherwise stepped by the session, frames showing it fall.
+  void drape(double seconds, bool coarse = true);
   bool draping() const { return draping_.load(); }
   void cancel_drape() { cancel_drape_ = true; }
   // The scene as it was just before the first stroke (its operations before it replayed into a

@@ -1280,7 +1280,7 @@ class StudioTest : public QObject {
              qPrintable(window_->statusBar()->currentMessage()));
   }
 
-  void a_new_garment_drapes_coarse_first_as_one_change_that_undo_takes_back() {
+  void a_new_garment_drapes_coarse_first_as_one_change_or_step_by_step_as_asked() {
     QVERIFY(studio_->open_body(QString::fromStdString(Body::default_path()), {}));
     QVERIFY(studio_->add_garment(GarmentSpec{}));  // 1 x 1 m, 2 cm apart: 2,601 vertices, laid over the body
     studio_->set_simulating(false);
@@ -1304,6 +1304,17 @@ class StudioTest : public QObject {
     // One change: undone, the cloth lies flat over the body again.
     studio_->undo();
     QVERIFY(wait_until([&] { return depth() < 0.01; }));
+    // Simulation > Drape step by step: the session steps it, as paused as it was after.
+    run_dialog("Drape step by step...", [](QDialog& d) {
+      qobject_cast<QInputDialog*>(&d)->setDoubleValue(0.5);
+      d.accept();
+    });
+    QVERIFY(wait_until([&] { return !studio_->draping(); }, 60000));
+    QTest::qWait(50);
+    const QString stepped = window_->statusBar()->currentMessage();
+    QVERIFY2(stepped.contains("Draped for 0.50 s") && !stepped.contains("coarse") && stepped.contains("paused again"),
+             qPrintable(stepped));
+    QVERIFY2(depth() > 0.05, qPrintable(QString("the cloth is %1 m deep").arg(depth())));
   }
 
   void error_messages_share_one_box_instead_of_stacking() {

@@ -171,6 +171,8 @@ void SimulationLoop::report(const std::string& message) {
 void SimulationLoop::publish_now() {
   auto lock = lock_session();
   publish(*session_);
+  // The work that asked goes on after this frame: what it changes next is the tick's to publish.
+  edited_ = true;
 }
 
 void SimulationLoop::run() {

@@ -239,6 +239,33 @@ TEST(SimulationLoop, APausedSessionKeepsItsClothStill) {
   ASSERT_TRUE(wait_until([&] { return loop.frame()->number > b->number + 3; })) << "and frames again once it runs";
 }
 
+TEST(SimulationLoop, WorkThatShowsItsProgressHasItsLastChangeShownToo) {
+  // As Kiji Studio's drape: long work publishes frames as it goes, then changes the garment once more
+  // (the coarse drape sets the draped garment at its end); a paused scene must still show that.
+  auto s = hanging_cloth();
+  SimulationLoop loop(s, 60);
+  loop.start();
+  loop.call([](Session& session) { session.set_simulating(false); });
+  std::atomic<bool> done{false};
+  loop.post([&](Session& session) {
+    loop.publish_now();
+    Garment g = session.garment(0);
+    for (Vertex v : g.mesh().vertices()) g.set_position(v, g.position(v) + Vec3(0, 0, 0.5));
+    session.set_garment(0, g);
+    done = true;
+  }, "move");
+  ASSERT_TRUE(wait_until([&] { return done.load(); }));
+  double z;
+  {
+    std::lock_guard<std::recursive_mutex> lock(s->mutex());
+    z = s->garment(0).bounds().max().z();
+  }
+  ASSERT_TRUE(wait_until([&] {
+    const auto f = loop.frame();
+    return f && std::abs(f->garments[0].bounds.max().z() - z) < 1e-6;
+  })) << "the frame still shows the garment as the work's progress frame had it";
+}
+
 TEST(SimulationLoop, ASharedSessionIsSteppedByItsPeerAndTheDevicesStrokesAreProposed) {
   auto s = hanging_cloth();
   // A stand-in for a peer: the gate collects what the session's user does; the "network" thread

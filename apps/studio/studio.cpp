@@ -503,7 +503,6 @@ void Studio::drape(double seconds, bool coarse) {
       std::atomic<bool>& flag;
       ~Done() { flag = false; }
     } done{draping_};
-    const double start = s.time();
     long step = 0;
     int shown = 0;
     // Where the garments are, as the user placed them (each new one is laid over the body). A new flat
@@ -519,14 +518,14 @@ void Studio::drape(double seconds, bool coarse) {
       }
       return !cancel_drape_.load() && !loop->stop_requested();
     }, /*place=*/false, 0.02, coarse);
-    double simulated = s.time() - start, wall = 0;
+    // Garments draped coarse first each took their own time; stepped, they were stepped together.
+    double simulated = 0, wall = 0;
     std::size_t copied = 0;
     for (const DrapeResult& r : results) {
-      if (r.coarse_vertices) simulated = std::max(simulated, r.seconds_simulated);
+      simulated = std::max(simulated, r.seconds_simulated);
       copied += r.coarse_vertices;
-      wall += r.coarse_vertices ? r.wall_seconds : 0;
+      wall = r.coarse_vertices ? wall + r.wall_seconds : r.wall_seconds;
     }
-    if (!copied && !results.empty()) wall = results.front().wall_seconds;
     const bool paused = !s.simulating();
     QMetaObject::invokeMethod(this, [this, simulated, paused, copied, wall] {
       emit message(QString("Draped for %1 s of simulated time in %2 s%3%4")

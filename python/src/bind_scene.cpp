@@ -99,6 +99,9 @@ void bind_scene(py::module_& m) {
           "gravity", [](const SolverParams& p) { return vec3_array(p.gravity); },
           [](SolverParams& p, py::handle v) { p.gravity = to_vec3(v, "gravity"); }, "m/s^2")
       .def_readwrite("substeps", &SolverParams::substeps)
+      .def_readwrite("held_substeps", &SolverParams::held_substeps,
+                     "Xpbd: substeps a step while a plain hand (a pinch) holds the garment, where more than "
+                     "substeps: the hand's pull reaches further into the cloth (0: substeps)")
       .def_readwrite("iterations", &SolverParams::iterations)
       .def_readwrite("body_collision", &SolverParams::body_collision)
       .def_readwrite("self_collision", &SolverParams::self_collision)
@@ -122,7 +125,8 @@ void bind_scene(py::module_& m) {
       .def("validate", &SolverParams::validate, "Raises InputError naming the first parameter out of range.")
       .def("__repr__", [](const SolverParams& p) {
         return "SolverParams(model='" + solver_model_name(p.model) + "', substeps=" + std::to_string(p.substeps) +
-               ", iterations=" + std::to_string(p.iterations) + ")";
+               ", held_substeps=" + std::to_string(p.held_substeps) + ", iterations=" + std::to_string(p.iterations) +
+               ")";
       });
 
   py::class_<ClothMeasures>(m, "ClothMeasures", "Is the cloth at rest, on the body, not inside it, not torn?")
@@ -140,6 +144,8 @@ void bind_scene(py::module_& m) {
 
   py::class_<StepReport>(m, "StepReport",
                          "What the last step did: self-collision searches and pairs, and the strain limit's work.")
+      .def_readonly("substeps", &StepReport::substeps,
+                    "substeps the step took (SolverParams.held_substeps while a plain hand held the garment)")
       .def_readonly("self_gathers", &StepReport::self_gathers, "searches for self-collision pairs in the step")
       .def_readonly("self_pairs", &StepReport::self_pairs, "vertex-triangle pairs found, summed over the searches")
       .def_readonly("self_overloaded", &StepReport::self_overloaded,
@@ -162,7 +168,7 @@ void bind_scene(py::module_& m) {
           "in the first step after it), and shared (in loops shared between threads; total - shared is what "
           "more cores cannot shorten)")
       .def("__repr__", [](const StepReport& r) {
-        return "StepReport(self_gathers=" + std::to_string(r.self_gathers) + ", self_pairs=" +
+        return "StepReport(substeps=" + std::to_string(r.substeps) + ", self_gathers=" + std::to_string(r.self_gathers) + ", self_pairs=" +
                std::to_string(r.self_pairs) + ", self_overloaded=" + (r.self_overloaded ? "True" : "False") +
                ", strain_limited=" + std::to_string(r.strain_limited) + ")";
       });

@@ -19,7 +19,8 @@ namespace {
 
 // Whether two sets of parameters are the same but for the local region (local_radius, local_center).
 bool same_but_local_region(const SolverParams& a, const SolverParams& b) {
-  return a.model == b.model && a.gravity == b.gravity && a.substeps == b.substeps && a.iterations == b.iterations &&
+  return a.model == b.model && a.gravity == b.gravity && a.substeps == b.substeps &&
+         a.held_substeps == b.held_substeps && a.iterations == b.iterations && a.floor == b.floor &&
          a.body_collision == b.body_collision && a.self_collision == b.self_collision &&
          a.strain_limit == b.strain_limit && a.spring_k == b.spring_k && a.spring_damping == b.spring_damping &&
          a.sleep_after == b.sleep_after && a.sleep_distance == b.sleep_distance;

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import kiji
+from conftest import flat_session, nearest_row
 
 
 def test_rectangle_arrays_round_trip():
@@ -101,6 +102,21 @@ def test_patterns_panel_and_rectangle_options():
         kiji.panel([(0, 0), (1, 1)], 0.1)
     with pytest.raises(kiji.InputError):
         kiji.panel([(0, 0), (1, 0), (0, 1)], -1)
+
+
+def test_a_pinch_steps_the_garment_at_the_held_substeps_and_a_step_says_so():
+    for held, expected in ((20, 20), (0, 10), (5, 10)):
+        s, g = flat_session(0.5, 0.5, 21, 21)
+        s.solver_params = kiji.SolverParams(gravity=(0, 0, 0), held_substeps=held)
+        c = g.positions[nearest_row(g, (0.25, 0.25, 0))]
+        s.begin("pinch", kiji.ToolEvent("begin", c, time=s.time))
+        s.update(kiji.ToolEvent("move", c + (0, 0, 0.05), time=s.time + 1 / s.frame_rate))
+        assert s.last_step(0).substeps == expected, f"held_substeps={held}: more than the 10 substeps, or 10"
+        s.end(kiji.ToolEvent("end", c + (0, 0, 0.05), time=s.time + 1 / s.frame_rate))
+        s.simulate(1 / s.frame_rate)
+        assert s.last_step(0).substeps == 10, "let go, the garment steps at its ordinary substeps"
+    with pytest.raises(kiji.InputError, match="held_substeps"):
+        kiji.SolverParams(held_substeps=-1)
 
 
 def test_materials_and_solver_params():

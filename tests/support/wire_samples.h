@@ -60,6 +60,7 @@ inline std::vector<std::pair<std::string, Operation>> sample_operations() {
   add("set_body_none", op::SetBody{});
   SolverParams p;
   p.floor = false;  // the build that saved these had no floor: what it wrote reads as off
+  p.held_substeps = 0;  // nor held substeps
   p.model = SolverModel::MassSpring;
   p.gravity = Vec3(0.5, -9.5, 0.25);
   p.substeps = 7;

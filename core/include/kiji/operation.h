@@ -120,9 +120,10 @@ void check_tool_event(const ToolEvent& event, const DecodeLimits& limits = {});
 void check_operation(const Operation& op, const DecodeLimits& limits = {});
 
 // --- binary forms (garments and bodies: kiji/codec.h) ---
-// The newest version of an operation's binary form. 2 added SolverParams::floor; an operation is
-// written in the oldest version that holds it (1 unless it sets the floor on).
-constexpr std::uint16_t kOperationVersion = 2;
+// The newest version of an operation's binary form. 2 added SolverParams::floor, 3
+// SolverParams::held_substeps; an operation is written in the oldest version that holds it (1
+// unless it sets the floor on or held substeps).
+constexpr std::uint16_t kOperationVersion = 3;
 std::string encode_operation(const Operation& op);
 // Throws InputError saying what is malformed (and at which byte) for bytes that are not a whole,
 // valid operation of a version this Kiji reads, or whose fields are out of range (check_operation).

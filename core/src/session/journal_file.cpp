@@ -211,6 +211,8 @@ json solver_json(const SolverParams& p) {
           {"sleep_distance", p.sleep_distance}};
   // Written only when on, as in the binary form: journals of earlier builds had no floor.
   if (p.floor) j["floor"] = true;
+  // Likewise the substeps while a hand holds: absent, a hand's step took `substeps`.
+  if (p.held_substeps != 0) j["held_substeps"] = p.held_substeps;
   return j;
 }
 
@@ -224,6 +226,7 @@ SolverParams parse_solver(const json& j, const Reader& r) {
   p.gravity = r.vec3(j, "gravity");
   p.substeps = static_cast<int>(r.whole(j, "substeps", 1, 1000));
   p.iterations = static_cast<int>(r.whole(j, "iterations", 1, 100));
+  p.held_substeps = j.contains("held_substeps") ? static_cast<int>(r.whole(j, "held_substeps", 0, 1000)) : 0;
   p.body_collision = r.boolean(j, "body_collision");
   p.self_collision = r.boolean(j, "self_collision");
   p.floor = j.contains("floor") && r.boolean(j, "floor");

@@ -84,6 +84,11 @@ void fields(A& a, Field<A, SolverParams>& p) {
     a.boolean(p.floor, "floor");
   else if constexpr (A::reading)
     p.floor = false;
+  // Version 3 added the substeps while a hand holds; before it a hand's step took `substeps`.
+  if (a.form_version() >= 3)
+    a.i32(p.held_substeps);
+  else if constexpr (A::reading)
+    p.held_substeps = 0;
   a.validate(p, "the solver parameters are out of range: ");
 }
 
@@ -151,7 +156,8 @@ template <class A>
 void fields(A& a, Field<A, Operation>& op, const DecodeLimits& limits) {
   // The oldest version that holds the operation, so that an older Kiji reads what it can.
   const auto* params = std::get_if<op::SetSolverParams>(&op.data);
-  a.version(kOperationVersion, params && params->params.floor ? 2 : 1, "operation");
+  a.version(kOperationVersion, !params ? 1 : params->params.held_substeps != 0 ? 3 : params->params.floor ? 2 : 1,
+            "operation");
   a.u64(op.step);
   a.u32(op.user);
   a.variant(op.data, kKindTags, "unknown operation kind", [&](auto& data) { fields(a, data, limits); });

@@ -105,6 +105,8 @@ void SolverParams::validate() const {
           static_cast<int>(model), "xpbd or mass_spring");
   require(all_finite(gravity), "gravity", vec_text(gravity), "a finite vector in m/s^2");
   require(substeps >= 1 && substeps <= 1000, "substeps", substeps, "between 1 and 1000");
+  require(held_substeps >= 0 && held_substeps <= 1000, "held_substeps", held_substeps,
+          "0 (as substeps) or up to 1000 substeps while a plain hand holds the garment");
   require(iterations >= 1 && iterations <= 100, "iterations", iterations, "between 1 and 100");
   require(std::isfinite(spring_k) && spring_k > 0, "spring_k", spring_k,
           "a positive finite spring constant (eq. 3 of the paper)");
@@ -1063,9 +1065,10 @@ void Solver::step(Garment& garment, double dt) {
     s.report.ms.total = 1000 * std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     s.report.ms.shared = 1000 * (parallel::shared_seconds() - shared_before);
   };
-  if (mass_spring)
+  if (mass_spring) {
+    s.report.substeps = params_.substeps;
     solver_detail::step_mass_spring(s, params_, mat, body, dt);
-  else
+  } else
     solver_detail::step_xpbd(s, params_, mat, body, dt);
 
   // A diverged state is never written back: the step is undone (the garment keeps the state it

@@ -223,6 +223,24 @@ TEST(JournalFile, AJournalSavedByAnEarlierBuildReadsBackAndSavesToTheSameFile) {
   EXPECT_EQ(again, saved);
 }
 
+// The substeps while a hand holds are saved with the solver's settings and come back; a journal
+// saved before them has none (a hand's step took the ordinary substeps), so it replays as it did.
+TEST(JournalFile, HeldSubstepsComeBackAndAnEarlierJournalHasNone) {
+  SolverParams held;
+  held.held_substeps = 40;
+  SolverParams none = held;
+  none.held_substeps = 0;
+  save_journal({Operation{0, 0, op::SetSolverParams{held}}, Operation{1, 0, op::SetSolverParams{none}}},
+               tmp("held.json"));
+  const JournalFile file = read_journal_file(tmp("held.json"));
+  ASSERT_EQ(file.operations.size(), 2u);
+  EXPECT_EQ(std::get<op::SetSolverParams>(file.operations[0].data).params.held_substeps, 40);
+  EXPECT_EQ(std::get<op::SetSolverParams>(file.operations[1].data).params.held_substeps, 0);
+  const JournalFile earlier = read_journal_file(std::string(KIJI_TEST_SAVED) + "/journal.json");
+  for (const Operation& op : earlier.operations)
+    if (const auto* p = std::get_if<op::SetSolverParams>(&op.data)) EXPECT_EQ(p->params.held_substeps, 0) << "step " << op.step;
+}
+
 // The floor under the body is saved with the solver's settings and comes back; a journal saved
 // before the floor existed has none, so it replays as it did then.
 TEST(JournalFile, TheFloorSettingComesBackAndAnEarlierJournalHasNone) {

@@ -313,6 +313,7 @@ TEST(Operation, TheFloorIsWrittenInVersionTwoAndOffInVersionOne) {
   // Parameters with the floor off are the bytes a build before the floor wrote (version 1), and
   // those read as off, so that a session saved then replays as it ran; on, version 2.
   SolverParams on, off;
+  on.held_substeps = off.held_substeps = 0;  // as before the held substeps (version 3, below)
   off.floor = false;
   const std::string with = encode_operation({1, 0, op::SetSolverParams{on}});
   const std::string without = encode_operation({1, 0, op::SetSolverParams{off}});
@@ -329,6 +330,27 @@ TEST(Operation, TheFloorIsWrittenInVersionTwoAndOffInVersionOne) {
   EXPECT_THROW(decode_operation(v1_with_floor), InputError) << "a byte left over in version 1";
 }
 
+TEST(Operation, HeldSubstepsAreWrittenInVersionThreeAndOffBeforeIt) {
+  // Parameters with held substeps (the default) are version 3; without them, the bytes a build
+  // before them wrote (version 2 with the floor on), which read as none, so that a session saved
+  // then replays as it ran.
+  SolverParams held, none;
+  none.held_substeps = 0;
+  const std::string with = encode_operation({1, 0, op::SetSolverParams{held}});
+  const std::string without = encode_operation({1, 0, op::SetSolverParams{none}});
+  EXPECT_EQ(with[0], 3);
+  EXPECT_EQ(without[0], 2);
+  EXPECT_EQ(with.size(), without.size() + 4);
+  EXPECT_EQ(std::get<op::SetSolverParams>(decode_operation(with).data).params.held_substeps, held.held_substeps);
+  EXPECT_EQ(std::get<op::SetSolverParams>(decode_operation(without).data).params.held_substeps, 0);
+  EXPECT_EQ(encode_operation(decode_operation(with)), with);
+  EXPECT_THROW(decode_operation(with.substr(0, with.size() - 1)), InputError) << "version 3 cut short";
+  // They are the operation's last four bytes (little-endian): 5,000 is out of range.
+  std::string out_of_range = with;
+  out_of_range.replace(out_of_range.size() - 4, 4, std::string("\x88\x13\0\0", 4));
+  EXPECT_NE(refusal([&] { decode_operation(out_of_range); }).find("held_substeps"), std::string::npos);
+}
+
 TEST(Operation, ValuesOutOfRangeAreRefusedSayingWhat) {
   const auto saved = test::read_samples("operations.txt");
   auto named = [&](const std::string& name) {
@@ -343,11 +365,11 @@ TEST(Operation, ValuesOutOfRangeAreRefusedSayingWhat) {
   std::string version = named("undo");
   version[0] = 0;
   EXPECT_EQ(refusal([&] { decode_operation(version); }),
-            "operation is malformed at byte 2: operation format version 0; this Kiji reads versions 1 to 2: no Kiji "
+            "operation is malformed at byte 2: operation format version 0; this Kiji reads versions 1 to 3: no Kiji "
             "writes version 0, so the bytes are damaged or not Kiji's");
-  version[0] = 3;
+  version[0] = 4;
   EXPECT_EQ(refusal([&] { decode_operation(version); }),
-            "operation is malformed at byte 2: operation format version 3; this Kiji reads versions 1 to 2: use a newer Kiji");
+            "operation is malformed at byte 2: operation format version 4; this Kiji reads versions 1 to 3: use a newer Kiji");
   EXPECT_EQ(refusal([&] { decode_operation(named("undo") + "zz"); }),
             "operation is malformed at byte 15: 2 bytes are left over after the operation");
 
@@ -432,7 +454,7 @@ TEST(Operation, ValuesOutOfRangeAreRefusedSayingWhat) {
   SolverParams p;
   p.substeps = 0;
   EXPECT_EQ(refusal([&] { decode_operation(encode_operation({1, 0, op::SetSolverParams{p}})); }).rfind(
-                "operation is malformed at byte 123: the solver parameters are out of range: ", 0),
+                "operation is malformed at byte 127: the solver parameters are out of range: ", 0),
             0u);
   std::string model = encode_operation({1, 0, op::SetSolverParams{SolverParams{}}});
   model[15] = 2;

@@ -132,7 +132,9 @@ TEST(ToolContext, AHandAndALocalRegionHoldTheClothWhileTheStrokeLasts) {
   };
   s.stroke(held_at, held_at + Vec3(0, 0, 0.2), 30);
 
-  EXPECT_GT(g.position(held).z(), 0.1) << "the hand pulled the cloth along";
+  // The cloth beyond the region is held, so the hand lifts a membrane fixed on a 0.25 m circle:
+  // 5 % of stretch (the strain limit) lets its middle come about 8 cm out of its plane.
+  EXPECT_GT(g.position(held).z(), 0.06) << "the hand pulled the cloth along";
   EXPECT_EQ(g.position(far), far_at) << "outside the local region the cloth did not fall";
   const Solver& solver = s.session->solver(0);
   EXPECT_EQ(solver.attachment_count(), 0u);

@@ -82,9 +82,10 @@ struct ToolRate {
   // The largest edge strain (|length / rest - 1|) of the garment during a stroke and once it has ended
   // (half a second later): the median over the strokes.
   double max_strain_during = 0, max_strain_after = 0;
-  // The edges beyond 10 % strain: the most at any step of a stroke, and half a second after it, the
-  // median over the strokes. The largest strain is one edge; this is how much of the cloth is stretched.
-  double stretched_during = 0, stretched_after = 0;
+  // The edges stretched or compressed beyond 10 %: the most at any step of a stroke, and half a
+  // second after it, the median over the strokes. The largest strain is one edge; this is how much
+  // of the cloth is out of shape.
+  double beyond_10pct_during = 0, beyond_10pct_after = 0;
   // The steps that rebuilt the solver after the row's strokes changed the garment's topology (a cut,
   // a tear, a seam), during each stroke and in the half second after it, and the median time a
   // rebuild took (StepReport::ms.rebuild).
@@ -172,7 +173,7 @@ double max_strain(const Garment& g) {
 }
 
 // The garment's edges stretched or compressed by more than 10 %.
-int stretched_edges(const Garment& g) {
+int edges_beyond_10pct(const Garment& g) {
   int n = 0;
   for (Edge e : g.mesh().edges()) n += std::abs(g.strain(e)) > 0.1;
   return n;
@@ -200,7 +201,7 @@ std::vector<ToolRate> tool_rates(const Body& body, int vertices, int frames, int
     const bool local = name == "pinch_local", landing = name == "pinch_landing";
     const std::string tool = (local || landing) ? "pinch" : name;
     std::vector<ToolRate> made;
-    std::vector<double> during, after, rebuilds, stretched_during, stretched_after;
+    std::vector<double> during, after, rebuilds, beyond_during, beyond_after;
     for (const auto& offset : kStrokeOffsets) {
       if (static_cast<int>(made.size()) == strokes) break;
       Session s(tools);
@@ -232,7 +233,7 @@ std::vector<ToolRate> tool_rates(const Body& body, int vertices, int frames, int
       ParamSet p = local ? s.params_for(tool, {{"local_radius", kLocalRadius}}) : s.params_for(tool);
       const Camera cam = Camera::framing(body.bounds());
       double step_s = 0, frame_s = 0, strain_during = 0;
-      int stretched = 0;
+      int beyond = 0;
       StepReport::Times times;
       Vec3 last = a;
       for (int f = 0; f <= frames; ++f) {
@@ -255,7 +256,7 @@ std::vector<ToolRate> tool_rates(const Body& body, int vertices, int frames, int
         render({&gg}, &body, cam, 320, 240);
         frame_s += seconds_since(t1);
         strain_during = std::max(strain_during, max_strain(gg));
-        stretched = std::max(stretched, stretched_edges(gg));
+        beyond = std::max(beyond, edges_beyond_10pct(gg));
       }
       int moving = 0;
       if (local)
@@ -270,8 +271,8 @@ std::vector<ToolRate> tool_rates(const Body& body, int vertices, int frames, int
       }
       during.push_back(strain_during);
       after.push_back(max_strain(s.garment(0)));
-      stretched_during.push_back(stretched);
-      stretched_after.push_back(stretched_edges(s.garment(0)));
+      beyond_during.push_back(beyond);
+      beyond_after.push_back(edges_beyond_10pct(s.garment(0)));
       ToolRate r;
       r.tool = name;
       r.steps_per_second = (frames + 1) / step_s;
@@ -293,8 +294,8 @@ std::vector<ToolRate> tool_rates(const Body& body, int vertices, int frames, int
     for (const ToolRate& m : made) r.stroke_steps_per_second.push_back(m.steps_per_second);
     r.max_strain_during = median(during);
     r.max_strain_after = median(after);
-    r.stretched_during = median(stretched_during);
-    r.stretched_after = median(stretched_after);
+    r.beyond_10pct_during = median(beyond_during);
+    r.beyond_10pct_after = median(beyond_after);
     r.topology_edits = static_cast<int>(rebuilds.size());
     r.topology_edit_ms = median(rebuilds);
     out.push_back(r);
@@ -666,8 +667,8 @@ int bench_command(const std::vector<std::string>& argv) {
       rate["strokes"] = r.stroke_steps_per_second;
       rate["max_strain_during"] = r.max_strain_during;
       rate["max_strain_after"] = r.max_strain_after;
-      rate["edges_beyond_10pct_during"] = r.stretched_during;
-      rate["edges_beyond_10pct_after"] = r.stretched_after;
+      rate["edges_beyond_10pct_during"] = r.beyond_10pct_during;
+      rate["edges_beyond_10pct_after"] = r.beyond_10pct_after;
       rate["topology_edits"] = r.topology_edits;
       if (r.topology_edits > 0) rate["topology_edit_ms"] = r.topology_edit_ms;
       row[r.tool] = rate;
@@ -678,7 +679,7 @@ int bench_command(const std::vector<std::string>& argv) {
       say("      %-13s a step %s; %.0f%% asleep at the end; largest strain %.3f during, %.3f after; "
           "edges beyond 10%%: %.0f during, %.0f after",
           r.tool.c_str(), phases_text(r.ms).c_str(), 100 * r.asleep, r.max_strain_during, r.max_strain_after,
-          r.stretched_during, r.stretched_after);
+          r.beyond_10pct_during, r.beyond_10pct_after);
       if (r.topology_edits > 0)
         say("; %d topology edits, %.1f ms each (topology_edit_ms, the median)", r.topology_edits, r.topology_edit_ms);
       say("\n");

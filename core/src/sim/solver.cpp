@@ -1065,11 +1065,17 @@ void Solver::step(Garment& garment, double dt) {
     s.report.ms.total = 1000 * std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     s.report.ms.shared = 1000 * (parallel::shared_seconds() - shared_before);
   };
-  if (mass_spring) {
-    s.report.substeps = params_.substeps;
-    solver_detail::step_mass_spring(s, params_, mat, body, dt);
-  } else
-    solver_detail::step_xpbd(s, params_, mat, body, dt);
+  // Xpbd takes more substeps while a plain hand holds a moving vertex (SolverParams::held_substeps):
+  // the hand's pull then reaches further into the cloth within the step (docs/benchmarks.md, "A
+  // hand's drag at more substeps").
+  SolverParams step_params = params_;
+  if (!mass_spring && std::any_of(s.attach.begin(), s.attach.end(), [&](const auto& a) { return !a.firm && s.w[a.i] != 0; }))
+    step_params.substeps = std::max(step_params.substeps, step_params.held_substeps);
+  s.report.substeps = step_params.substeps;
+  if (mass_spring)
+    solver_detail::step_mass_spring(s, step_params, mat, body, dt);
+  else
+    solver_detail::step_xpbd(s, step_params, mat, body, dt);
 
   // A diverged state is never written back: the step is undone (the garment keeps the state it
   // had, and the arrays, whose collision margins the step left non-finite, are built again from it).

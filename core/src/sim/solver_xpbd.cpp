@@ -357,15 +357,8 @@ static int self_window(const SolverArrays& s, const SolverParams& p, double th) 
   return best;
 }
 
-void step_xpbd(SolverArrays& s, const SolverParams& params, const Material& m, const BodyCollider* body,
+void step_xpbd(SolverArrays& s, const SolverParams& p, const Material& m, const BodyCollider* body,
                double dt) {
-  // More substeps while a plain hand holds the garment (SolverParams::held_substeps): the hand's
-  // pull then reaches further into the cloth within the step (docs/benchmarks.md, "A hand's drag
-  // at more substeps").
-  SolverParams p = params;
-  if (std::any_of(s.attach.begin(), s.attach.end(), [&](const SolverArrays::Attach& a) { return !a.firm && s.w[a.i] != 0; }))
-    p.substeps = std::max(p.substeps, p.held_substeps);
-  s.report.substeps = p.substeps;
   const int substeps = p.substeps;
   const double h = dt / substeps;
   const std::size_t n = s.n;

@@ -9,12 +9,13 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <limits>
-#include <queue>
 #include <sstream>
+#include <thread>
 
 namespace kiji {
 
@@ -177,14 +178,81 @@ std::uint32_t spread_bits(std::uint32_t x) {  // 10 bits -> every third bit
   return x;
 }
 
+// Sorts (code, index) pairs listed in increasing index by code, ties in index order: what
+// std::sort of the pairs gives, by a stable radix sort of the 30-bit Morton codes (three passes
+// of 10 bits), a quarter of the sort's time on a garment's 40,000 triangles.
+void sort_by_code(std::vector<std::pair<std::uint32_t, int>>& keyed) {
+  std::vector<std::pair<std::uint32_t, int>> other(keyed.size());
+  for (int shift = 0; shift < 30; shift += 10) {
+    std::array<int, 1025> start{};
+    for (const auto& k : keyed) ++start[((k.first >> shift) & 1023) + 1];
+    for (int b = 0; b < 1024; ++b) start[b + 1] += start[b];
+    for (const auto& k : keyed) other[start[(k.first >> shift) & 1023]++] = k;
+    keyed.swap(other);
+  }
+}
+
+// A min-heap of (distance, vertex) pairs for the long-range searches, with a vertex in it once
+// (its distance lowered in place): it pops the vertices in the order a heap of every improvement
+// (std::priority_queue) pops them, without that heap's stale entries.
+class VertexHeap {
+ public:
+  void resize(std::size_t n) { pos_.assign(n, -1); }
+  bool empty() const { return heap_.empty(); }
+  // Puts v in at d, or lowers it to d (less than it has).
+  void push_or_lower(double d, int v) {
+    int i = pos_[v];
+    if (i < 0) {
+      i = static_cast<int>(heap_.size());
+      heap_.emplace_back(d, v);
+    }
+    const Entry e{d, v};
+    while (i > 0) {
+      const int parent = (i - 1) / 2;
+      if (!(e < heap_[parent])) break;
+      place(i, heap_[parent]);
+      i = parent;
+    }
+    place(i, e);
+  }
+  std::pair<double, int> pop() {
+    const Entry top = heap_[0];
+    pos_[top.second] = -1;
+    const Entry e = heap_.back();
+    heap_.pop_back();
+    const int size = static_cast<int>(heap_.size());
+    if (size > 0) {
+      int i = 0;
+      for (;;) {
+        int child = 2 * i + 1;
+        if (child >= size) break;
+        if (child + 1 < size && heap_[child + 1] < heap_[child]) ++child;
+        if (!(heap_[child] < e)) break;
+        place(i, heap_[child]);
+        i = child;
+      }
+      place(i, e);
+    }
+    return top;
+  }
+
+ private:
+  using Entry = std::pair<double, int>;
+  void place(int i, const Entry& e) {
+    heap_[i] = e;
+    pos_[e.second] = i;
+  }
+  std::vector<Entry> heap_;
+  std::vector<int> pos_;  // per vertex: its place in heap_, or -1
+};
+
 // Greedy colouring: a constraint gets the smallest colour none of its vertices has yet, so the
 // constraints of one colour share no vertex (they can be solved in parallel, Gauss-Seidel between
-// colours). Returns the permutation sorted by colour and the colour offsets.
+// colours). Each constraint's colour in `col`; returns the number of colours.
 template <int K, typename GetVerts>
-void colour(std::size_t count, std::size_t n, GetVerts verts, std::vector<int>& perm,
-            std::vector<int>& offsets) {
+int greedy_colours(std::size_t count, std::size_t n, GetVerts verts, std::vector<int>& col) {
   std::vector<std::uint64_t> used(n, 0);
-  std::vector<int> col(count, 0);
+  col.assign(count, 0);
   int ncol = 0;
   for (std::size_t c = 0; c < count; ++c) {
     std::array<int, K> vs = verts(c);
@@ -197,12 +265,18 @@ void colour(std::size_t count, std::size_t n, GetVerts verts, std::vector<int>& 
       for (int k = 0; k < K; ++k) used[vs[k]] |= (std::uint64_t(1) << colour_id);
     ncol = std::max(ncol, colour_id + 1);
   }
-  offsets.assign(ncol + 1, 0);
-  for (std::size_t c = 0; c < count; ++c) ++offsets[col[c] + 1];
-  for (int k = 0; k < ncol; ++k) offsets[k + 1] += offsets[k];
-  std::vector<int> fill(offsets.begin(), offsets.end() - 1);
-  perm.assign(count, 0);
-  for (std::size_t c = 0; c < count; ++c) perm[fill[col[c]]++] = static_cast<int>(c);
+  return ncol;
+}
+
+// The constraints [0, count) sorted by key (in [0, keys)), in their order within a key: the
+// permutation, and where each key's run begins (keys + 1 entries).
+void sort_by_key(const std::vector<int>& key, int keys, std::vector<int>& perm, std::vector<int>& begin) {
+  begin.assign(keys + 1, 0);
+  for (int k : key) ++begin[k + 1];
+  for (int k = 0; k < keys; ++k) begin[k + 1] += begin[k];
+  std::vector<int> fill(begin.begin(), begin.end() - 1);
+  perm.assign(key.size(), 0);
+  for (std::size_t c = 0; c < key.size(); ++c) perm[fill[key[c]]++] = static_cast<int>(c);
 }
 
 // The order in which a set of constraints is solved, and its ranges (see SolverArrays): first each
@@ -212,32 +286,35 @@ void colour(std::size_t count, std::size_t n, GetVerts verts, std::vector<int>& 
 // barrier between blocks and the rest, not between every two colours, and each block's vertices
 // stay in the core's cache while its constraints are solved. With one block, the constraints
 // within it are solved in sequence; a garment too small for two blocks is too small to share.
+// Both sorts are counting sorts over the constraints read in their own order (read in colour
+// order, the bending constraints' 64 bytes each were a cache miss apiece).
 template <int K, typename GetVerts>
 void schedule(std::size_t count, std::size_t n, const std::vector<int>& block, int blocks, GetVerts verts,
               std::vector<int>& perm, std::vector<int>& offsets, std::vector<unsigned char>& kinds) {
-  std::vector<int> by_colour, colours;
-  colour<K>(count, n, verts, by_colour, colours);
-  std::vector<std::vector<int>> own(blocks);
-  std::vector<int> across;
-  for (int c : by_colour) {
+  std::vector<int> col, key(count), sorted, begin;
+  const int ncol = std::max(1, greedy_colours<K>(count, n, verts, col));
+  for (std::size_t c = 0; c < count; ++c) {  // by block (the last: across blocks), then colour
     const std::array<int, K> vs = verts(c);
     const int b = block[vs[0]];
     bool inside = true;
     for (int k = 1; k < K; ++k) inside = inside && block[vs[k]] == b;
-    (inside ? own[b] : across).push_back(c);
+    key[c] = (inside ? b : blocks) * ncol + col[c];
   }
-  perm.clear();
+  sort_by_key(key, (blocks + 1) * ncol, sorted, begin);
+  const int own = begin[blocks * ncol];
+  perm.assign(sorted.begin(), sorted.begin() + own);
   offsets.assign(1, 0);
   kinds.clear();
-  for (const std::vector<int>& o : own) {
-    perm.insert(perm.end(), o.begin(), o.end());
-    offsets.push_back(static_cast<int>(perm.size()));
-    kinds.push_back(kinds.empty() ? SolverArrays::kFirstBlock : SolverArrays::kBlock);
+  for (int b = 0; b < blocks; ++b) {
+    offsets.push_back(begin[(b + 1) * ncol]);
+    kinds.push_back(b == 0 ? SolverArrays::kFirstBlock : SolverArrays::kBlock);
   }
-  std::vector<int> across_perm, across_offsets;
-  colour<K>(across.size(), n, [&](std::size_t q) { return verts(across[q]); }, across_perm, across_offsets);
-  for (std::size_t c = 0; c + 1 < across_offsets.size(); ++c) {
-    for (int q = across_offsets[c]; q < across_offsets[c + 1]; ++q) perm.push_back(across[across_perm[q]]);
+  // Across blocks, in colour order, coloured again among themselves.
+  const std::vector<int> across(sorted.begin() + own, sorted.end());
+  const int across_colours = greedy_colours<K>(across.size(), n, [&](std::size_t q) { return verts(across[q]); }, col);
+  sort_by_key(col, across_colours, sorted, begin);
+  for (int c = 0; c < across_colours; ++c) {
+    for (int q = begin[c]; q < begin[c + 1]; ++q) perm.push_back(across[sorted[q]]);
     offsets.push_back(static_cast<int>(perm.size()));
     kinds.push_back(c == 63 ? SolverArrays::kSerial : SolverArrays::kGroup);  // 63: the overflow colour
   }
@@ -288,7 +365,6 @@ void build_long_range(SolverArrays& s, bool reuse, const std::vector<std::vector
   std::vector<int> hop(n, 0), mark(n, 0);
   std::vector<char> anchor(n, 0);
   std::vector<int> queue, anchors, finer;
-  using QE = std::pair<double, int>;
   std::vector<std::array<int, 2>> li;
   std::vector<double> lr;
   std::vector<int> lh;  // each limit's path, in edges
@@ -432,30 +508,32 @@ void build_long_range(SolverArrays& s, bool reuse, const std::vector<std::vector
     std::vector<std::vector<int>> piece_lh(pieces);
     std::vector<int> piece_searches(pieces, 0);
     parallel::for_range(pieces, 1, [&](int p0, int p1) {
-      std::vector<double> dist(n, std::numeric_limits<double>::infinity());
-      std::vector<int> hops(n, -1), reached;
-      std::priority_queue<QE, std::vector<QE>, std::greater<QE>> pq;
+      std::vector<double> dist;  // sized at the first search: after an edit most anchors keep theirs
+      std::vector<int> hops, reached;
+      VertexHeap heap;
       for (int piece = p0; piece < p1; ++piece) {
         const int a0 = parallel::piece_begin(na, piece, pieces), a1 = parallel::piece_begin(na, piece + 1, pieces);
         for (int q = a0; q < a1; ++q) {
           const int a = anchors[q];
           if (!again[a]) {
-            for (int k = kept->first[a]; k < kept->first[a] + kept->count[a]; ++k) {
-              piece_li[piece].push_back({a, kept->to[k]});
-              piece_lr[piece].push_back(kept->rest[k]);
-              piece_lh[piece].push_back(kept->edges[k]);
-            }
+            const int k0 = kept->first[a], k1 = k0 + kept->count[a];
+            for (int k = k0; k < k1; ++k) piece_li[piece].push_back({a, kept->to[k]});
+            piece_lr[piece].insert(piece_lr[piece].end(), kept->rest.begin() + k0, kept->rest.begin() + k1);
+            piece_lh[piece].insert(piece_lh[piece].end(), kept->edges.begin() + k0, kept->edges.begin() + k1);
             continue;
+          }
+          if (dist.empty()) {
+            dist.assign(n, std::numeric_limits<double>::infinity());
+            hops.assign(n, -1);
+            heap.resize(n);
           }
           ++piece_searches[piece];
           reached.assign(1, a);
           dist[a] = 0;
           hops[a] = 0;
-          pq.push({0.0, a});
-          while (!pq.empty()) {
-            const auto [d, u] = pq.top();
-            pq.pop();
-            if (d > dist[u]) continue;
+          heap.push_or_lower(0.0, a);
+          while (!heap.empty()) {
+            const auto [d, u] = heap.pop();
             if (u != a && anchor[u] && u > a) {
               piece_li[piece].push_back({a, u});
               piece_lr[piece].push_back(d);
@@ -469,7 +547,7 @@ void build_long_range(SolverArrays& s, bool reuse, const std::vector<std::vector
                 if (!std::isfinite(dist[w])) reached.push_back(w);
                 dist[w] = nd;
                 hops[w] = hops[u] + g_edges[k];
-                pq.push({nd, w});
+                heap.push_or_lower(nd, w);
               }
             }
           }
@@ -500,13 +578,14 @@ void build_long_range(SolverArrays& s, bool reuse, const std::vector<std::vector
       }
       found.first.assign(n, 0);
       found.count.assign(n, 0);
+      found.to.resize(li.size() - before);
       for (std::size_t k = before; k < li.size(); ++k) {
         const int a = li[k][0];
         if (found.count[a]++ == 0) found.first[a] = static_cast<int>(k - before);
-        found.to.push_back(li[k][1]);
-        found.rest.push_back(lr[k]);
-        found.edges.push_back(lh[k]);
+        found.to[k - before] = li[k][1];
       }
+      found.rest.assign(lr.begin() + before, lr.end());
+      found.edges.assign(lh.begin() + before, lh.end());
       *kept = std::move(found);
     }
   }
@@ -535,12 +614,13 @@ void build_long_range(SolverArrays& s, bool reuse, const std::vector<std::vector
 // bit changes (a linear BVH, Karras 2012; halves where codes are equal): O(n) after the sort, and
 // on cloth its self-collision queries are as fast as btDbvt::optimizeTopDown's tree, whose
 // bottom-up pass over blocks of 128 leaves (and the one-by-one insertion before it) made a rebuild
-// cost more than the queries it serves (docs/benchmarks.md). Nodes are allocated as btDbvt
-// allocates its own (btAlignedAlloc, 16 bytes aligned), so the tree frees them as its own.
+// cost more than the queries it serves (docs/benchmarks.md). The nodes lie in one block, `pool`
+// (SolverArrays::tri_nodes), which the tree never frees: only refitted and searched, it never
+// inserts or removes a node.
 btDbvtNode* build_node(const std::vector<std::pair<std::uint32_t, int>>& keys, int b, int e,
                        const std::vector<btDbvtVolume>& volumes, btDbvtNode* parent,
-                       std::vector<btDbvtNode*>& leaf_of) {
-  btDbvtNode* node = new (btAlignedAlloc(sizeof(btDbvtNode), 16)) btDbvtNode();
+                       std::vector<btDbvtNode*>& leaf_of, std::vector<btDbvtNode>& pool) {
+  btDbvtNode* node = &pool.emplace_back();
   node->parent = parent;
   if (e - b == 1) {
     const int id = keys[b].second;
@@ -558,17 +638,22 @@ btDbvtNode* build_node(const std::vector<std::pair<std::uint32_t, int>>& keys, i
                                                 [&](const auto& k) { return !(k.first & bit); }) -
                            keys.begin());
   }
-  node->childs[0] = build_node(keys, b, mid, volumes, node, leaf_of);
-  node->childs[1] = build_node(keys, mid, e, volumes, node, leaf_of);
+  node->childs[0] = build_node(keys, b, mid, volumes, node, leaf_of, pool);
+  node->childs[1] = build_node(keys, mid, e, volumes, node, leaf_of, pool);
   Merge(node->childs[0]->volume, node->childs[1]->volume, node->volume);
   return node;
 }
 
 void build_tree(btDbvt& tree, const std::vector<std::pair<std::uint32_t, int>>& keys,
-                const std::vector<btDbvtVolume>& volumes, std::vector<btDbvtNode*>& leaf_of) {
+                const std::vector<btDbvtVolume>& volumes, std::vector<btDbvtNode*>& leaf_of,
+                std::vector<btDbvtNode>& pool) {
+  tree.m_root = nullptr;  // its nodes are the pool's
+  tree.m_leaves = 0;
   tree.clear();
+  pool.clear();
   if (keys.empty()) return;
-  tree.m_root = build_node(keys, 0, static_cast<int>(keys.size()), volumes, nullptr, leaf_of);
+  pool.reserve(2 * keys.size() - 1);  // a binary tree's nodes: no reallocation moves them
+  tree.m_root = build_node(keys, 0, static_cast<int>(keys.size()), volumes, nullptr, leaf_of, pool);
   tree.m_leaves = static_cast<int>(keys.size());
 }
 
@@ -577,6 +662,7 @@ void build_tree(btDbvt& tree, const std::vector<std::pair<std::uint32_t, int>>& 
 void build_self_exclusions(SolverArrays& s) {
   static_assert(SolverArrays::kTriCluster <= 8, "a cluster's triangles are bits of one byte");
   const std::size_t n = s.n;
+  // Each vertex's triangles, by their places in the cluster order.
   std::vector<int> tri_slot(s.tris.size()), inc_begin(n + 1, 0), inc;
   for (std::size_t q = 0; q < s.tcl_items.size(); ++q) tri_slot[s.tcl_items[q]] = static_cast<int>(q);
   for (const auto& t : s.tris)
@@ -585,10 +671,11 @@ void build_self_exclusions(SolverArrays& s) {
   inc.resize(inc_begin[n]);
   std::vector<int> fill(inc_begin.begin(), inc_begin.end() - 1);
   for (std::size_t t = 0; t < s.tris.size(); ++t)
-    for (int u : s.tris[t]) inc[fill[u]++] = static_cast<int>(t);
+    for (int u : s.tris[t]) inc[fill[u]++] = tri_slot[t];
   // Each vertex's clusters in pieces of the vertex clusters' order, in parallel, joined in order
   // (the same lists whatever the thread count): a cluster's bits gathered in a mask per cluster,
   // the clusters met sorted (a dozen a vertex, where sorting every corner met cost six times as much).
+  // A vertex's own triangles are its neighbours' too (their other corners are its neighbours).
   const int nv = static_cast<int>(s.vcl_items.size());
   const int clusters = static_cast<int>((s.tcl_items.size() + SolverArrays::kTriCluster - 1) / SolverArrays::kTriCluster);
   const int pieces = std::max(1, std::min(nv, 4 * parallel::thread_count()));
@@ -601,25 +688,36 @@ void build_self_exclusions(SolverArrays& s) {
       std::vector<int>& out_cluster = piece_cluster[piece];
       std::vector<std::uint8_t>& out_mask = piece_mask[piece];
       std::vector<int>& out_count = piece_count[piece];
-      for (int p = parallel::piece_begin(nv, piece, pieces); p < parallel::piece_begin(nv, piece + 1, pieces); ++p) {
+      const int b = parallel::piece_begin(nv, piece, pieces), e = parallel::piece_begin(nv, piece + 1, pieces);
+      out_count.reserve(e - b);
+      out_cluster.reserve(14 * (e - b));
+      out_mask.reserve(14 * (e - b));
+      for (int p = b; p < e; ++p) {
         const int v = s.vcl_items[p];
-        met.clear();
-        auto add = [&](int u) {
-          for (int k = inc_begin[u]; k < inc_begin[u + 1]; ++k) {
-            const int q = tri_slot[inc[k]], c = q / SolverArrays::kTriCluster;
-            if (!acc[c]) met.push_back(c);
+        int count = 0;
+        for (int k = s.nbr_begin[v]; k < s.nbr_begin[v + 1]; ++k) {
+          const int u = s.nbr[k];
+          if (met.size() < std::size_t(count + inc_begin[u + 1] - inc_begin[u])) met.resize(2 * met.size() + 64);
+          for (int j = inc_begin[u]; j < inc_begin[u + 1]; ++j) {
+            const int q = inc[j], c = q / SolverArrays::kTriCluster;
+            met[count] = c;  // kept where it is first met (without a branch: whether it is, is a coin toss)
+            count += !acc[c];
             acc[c] |= std::uint8_t(1u << (q % SolverArrays::kTriCluster));
           }
-        };
-        add(v);
-        for (int k = s.nbr_begin[v]; k < s.nbr_begin[v + 1]; ++k) add(s.nbr[k]);
-        std::sort(met.begin(), met.end());
-        for (int c : met) {
+        }
+        for (int i = 1; i < count; ++i) {  // a dozen: insertion
+          const int c = met[i];
+          int j = i;
+          for (; j > 0 && met[j - 1] > c; --j) met[j] = met[j - 1];
+          met[j] = c;
+        }
+        for (int i = 0; i < count; ++i) {
+          const int c = met[i];
           out_cluster.push_back(c);
           out_mask.push_back(acc[c]);
           acc[c] = 0;
         }
-        out_count.push_back(static_cast<int>(met.size()));
+        out_count.push_back(count);
       }
     }
   });
@@ -743,8 +841,11 @@ void rebuild(SolverArrays& s, const Garment& g) {
   s.n = n;
   s.alive.assign(n, 0);
   s.moving.assign(n, 0);
-  s.x.assign(n, Vec3::Zero());
-  s.xp = s.x0 = s.v = s.fext = s.pred = s.unkick = s.x;
+  // The step fills these from the garment; nothing below reads them (reset beside the work below).
+  auto reset_state = [&] {
+    s.x.assign(n, Vec3::Zero());
+    s.xp = s.x0 = s.v = s.fext = s.pred = s.unkick = s.x;
+  };
   s.w.assign(n, 0.0);
   s.surprise.assign(n, 0.0);
   s.surprise_self.assign(n, 0.0);
@@ -790,20 +891,25 @@ void rebuild(SolverArrays& s, const Garment& g) {
            (spread_bits(std::uint32_t(q.z())) << 2);
   };
   for (Vertex v : m.vertices()) keyed.emplace_back(morton(built_at[v.idx()]), static_cast<int>(v.idx()));
-  std::sort(keyed.begin(), keyed.end());
+  sort_by_code(keyed);
   s.order.clear();
   for (const auto& k : keyed) s.order.push_back(k.second);
   const std::vector<std::pair<std::uint32_t, int>> vertex_keys = keyed;
 
-  // Edges, coloured.
+  // The edges, for the stretch constraints (coloured) and the neighbours.
   std::vector<int> ei, ej;
   std::vector<Edge> eh;
-  for (Edge e : m.edges()) {
-    const Halfedge h = m.halfedge(e);
-    ei.push_back(static_cast<int>(m.source(h).idx()));
-    ej.push_back(static_cast<int>(m.target(h).idx()));
-    eh.push_back(e);
-  }
+  auto list_edges = [&] {
+    ei.reserve(m.number_of_edges());
+    ej.reserve(m.number_of_edges());
+    eh.reserve(m.number_of_edges());
+    for (Edge e : m.edges()) {
+      const Halfedge h = m.halfedge(e);
+      ei.push_back(static_cast<int>(m.source(h).idx()));
+      ej.push_back(static_cast<int>(m.target(h).idx()));
+      eh.push_back(e);
+    }
+  };
   // Blocks of about kBlockVertices vertices each, consecutive in the spatial order: compact patches
   // of the cloth.
   constexpr int kBlockVertices = 1024;
@@ -824,8 +930,9 @@ void rebuild(SolverArrays& s, const Garment& g) {
       s.e_j[k] = ej[perm[k]];
       s.e_handle[k] = eh[perm[k]];
     }
-
-    // Triangles and neighbours.
+  };
+  // Triangles and neighbours.
+  auto neighbours = [&] {
     s.tris.clear();
     for (Face f : m.faces()) {
       std::array<int, 3> t{};
@@ -863,21 +970,12 @@ void rebuild(SolverArrays& s, const Garment& g) {
     }
   };
 
-  // The stretch constraints with the triangles and neighbours, beside the bending constraints:
-  // they read the mesh and the blocks, and write apart.
-  parallel::for_each(2, [&](int task) {
-    if (task == 0)
-      stretch();
-    else
-      build_bending(s, g);
-  });
-
   // Self-collision trees: a leaf per cluster of nearby triangles and of nearby vertices (runs in
   // Morton order), built once, refitted at each gather.
   auto collision_structures = [&] {
     auto cluster_tree = [&](const std::vector<std::pair<std::uint32_t, int>>& sorted, int size,
-                            const std::vector<Box3>& item_box, btDbvt& tree, std::vector<int>& begin,
-                            std::vector<int>& items, std::vector<btDbvtNode*>& leaf_of) {
+                            const std::vector<Box3>& item_box, btDbvt& tree, std::vector<btDbvtNode>& pool,
+                            std::vector<int>& begin, std::vector<int>& items, std::vector<btDbvtNode*>& leaf_of) {
       const int count = static_cast<int>(sorted.size()), clusters = (count + size - 1) / size;
       begin.assign(1, 0);
       items.clear();
@@ -895,7 +993,7 @@ void rebuild(SolverArrays& s, const Garment& g) {
                                                btVector3(b.max().x(), b.max().y(), b.max().z())));
       }
       leaf_of.assign(clusters, nullptr);
-      build_tree(tree, keys, volumes, leaf_of);
+      build_tree(tree, keys, volumes, leaf_of, pool);
     };
     std::vector<Box3> item_box(s.tris.size());
     keyed.clear();
@@ -903,24 +1001,64 @@ void rebuild(SolverArrays& s, const Garment& g) {
       for (int k = 0; k < 3; ++k) item_box[t].extend(built_at[s.tris[t][k]]);
       keyed.emplace_back(morton(item_box[t].center()), static_cast<int>(t));
     }
-    std::sort(keyed.begin(), keyed.end());
-    cluster_tree(keyed, SolverArrays::kTriCluster, item_box, s.tri_tree, s.tcl_begin, s.tcl_items, s.tcl_leaf);
+    sort_by_code(keyed);
+    cluster_tree(keyed, SolverArrays::kTriCluster, item_box, s.tri_tree, s.tri_nodes, s.tcl_begin, s.tcl_items, s.tcl_leaf);
     item_box.assign(n, Box3());
     for (Vertex v : m.vertices()) item_box[v.idx()].extend(built_at[v.idx()]);
-    cluster_tree(vertex_keys, SolverArrays::kVertCluster, item_box, s.vert_tree, s.vcl_begin, s.vcl_items, s.vcl_leaf);
+    cluster_tree(vertex_keys, SolverArrays::kVertCluster, item_box, s.vert_tree, s.vert_nodes, s.vcl_begin, s.vcl_items, s.vcl_leaf);
     build_self_exclusions(s);
   };
-  // After an edit, when few long-range searches run, the limits and the collision's structures are
-  // built side by side (they read what is built above and write apart; a loop within either then
-  // runs on its own thread). A first build shares the limits' searches between the threads instead.
+  // After an edit, two lines of work, one a thread: the edges, triangles and neighbours, then the
+  // long-range limits (they read those); beside them the state's reset, then the collision's
+  // structures (once the triangles and neighbours are there). The bending and the stretch
+  // constraints go to whichever thread is free first (the one that waits for the neighbours, or
+  // the first done): the lines' lengths vary with the edit. They write apart; a loop within any runs on its own thread. A first build, whose
+  // long-range searches are most of it, shares those between the threads instead.
   if (had_searches) {
+    enum : int { kPending, kDone, kFailed };
+    std::atomic<int> neighboured{kPending}, next_left{0};
+    auto take_one_left = [&] {
+      const int job = next_left.fetch_add(1);
+      if (job == 0)
+        build_bending(s, g);
+      else if (job == 1)
+        stretch();
+      return job < 2;
+    };
     parallel::for_each(2, [&](int task) {
-      if (task == 0)
+      if (task == 0) {
+        try {
+          list_edges();
+          neighbours();
+        } catch (...) {
+          neighboured.store(kFailed, std::memory_order_release);
+          throw;
+        }
+        neighboured.store(kDone, std::memory_order_release);
         build_long_range(s, had_searches, before_anchors.get());
-      else
+      } else {
+        reset_state();
+        // Task 0 is claimed first: it runs on another thread, or ran to its end on this one.
+        int state;
+        while ((state = neighboured.load(std::memory_order_acquire)) == kPending)
+          if (!take_one_left()) std::this_thread::yield();
+        if (state != kDone) return;
         collision_structures();
+      }
+      while (take_one_left()) {
+      }
     });
   } else {
+    list_edges();
+    parallel::for_each(2, [&](int task) {
+      if (task == 0) {
+        stretch();
+        neighbours();
+      } else {
+        build_bending(s, g);
+      }
+    });
+    reset_state();
     build_long_range(s, had_searches, before_anchors.get());
     collision_structures();
   }

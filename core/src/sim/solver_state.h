@@ -66,6 +66,10 @@ inline std::size_t bytes_of(const StepRecord& r) {
 }
 
 struct SolverArrays {
+  SolverArrays() = default;
+  SolverArrays(const SolverArrays&) = delete;  // the trees point into their own node blocks
+  SolverArrays& operator=(const SolverArrays&) = delete;
+
   // ---- identity of what the arrays mirror ----
   const Garment* garment = nullptr;
   std::uint64_t topology = 0;
@@ -223,6 +227,13 @@ struct SolverArrays {
   // per cluster tests its items' boxes in a flat loop instead. ----
   static constexpr int kVertCluster = 8, kTriCluster = 8;
   btDbvt tri_tree, vert_tree;
+  // The trees' nodes, one block each (build_tree): a rebuild drops the block instead of freeing
+  // thousands of nodes one by one. The trees are let go of them before a btDbvt would free them.
+  std::vector<btDbvtNode> tri_nodes, vert_nodes;
+  struct LetGoOfNodes {
+    SolverArrays* s;
+    ~LetGoOfNodes() { s->tri_tree.m_root = s->vert_tree.m_root = nullptr; }
+  } let_go_of_nodes{this};
   std::vector<int> vcl_begin, vcl_items, tcl_begin, tcl_items;
   std::vector<btDbvtNode*> vcl_leaf, tcl_leaf;
   // Per vertex (in cluster order, as vcl_items): the triangles it is never paired with, those with

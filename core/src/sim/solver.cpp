@@ -697,7 +697,8 @@ void build_self_exclusions(SolverArrays& s) {
         int count = 0;
         for (int k = s.nbr_begin[v]; k < s.nbr_begin[v + 1]; ++k) {
           const int u = s.nbr[k];
-          if (met.size() < std::size_t(count + inc_begin[u + 1] - inc_begin[u])) met.resize(2 * met.size() + 64);
+          const std::size_t most = count + inc_begin[u + 1] - inc_begin[u];
+          if (met.size() < most) met.resize(std::max(2 * met.size(), most));
           for (int j = inc_begin[u]; j < inc_begin[u + 1]; ++j) {
             const int q = inc[j], c = q / SolverArrays::kTriCluster;
             met[count] = c;  // kept where it is first met (without a branch: whether it is, is a coin toss)
@@ -1010,20 +1011,20 @@ void rebuild(SolverArrays& s, const Garment& g) {
   };
   // After an edit, two lines of work, one a thread: the edges, triangles and neighbours, then the
   // long-range limits (they read those); beside them the state's reset, then the collision's
-  // structures (once the triangles and neighbours are there). The bending and the stretch
-  // constraints go to whichever thread is free first (the one that waits for the neighbours, or
-  // the first done): the lines' lengths vary with the edit. They write apart; a loop within any runs on its own thread. A first build, whose
-  // long-range searches are most of it, shares those between the threads instead.
+  // structures (once the triangles and neighbours are there). The bending constraints, which read
+  // nothing of the first line's, fill the wait for the neighbours; what is left of them and of the
+  // stretch constraints (which read the edges) goes to the first thread done. They write apart; a
+  // loop within any runs on its own thread. A first build, whose long-range searches are most of
+  // it, shares those between the threads instead.
   if (had_searches) {
     enum : int { kPending, kDone, kFailed };
-    std::atomic<int> neighboured{kPending}, next_left{0};
-    auto take_one_left = [&] {
-      const int job = next_left.fetch_add(1);
-      if (job == 0)
-        build_bending(s, g);
-      else if (job == 1)
-        stretch();
-      return job < 2;
+    std::atomic<int> neighboured{kPending};
+    std::atomic<bool> bending_taken{false}, stretch_taken{false};
+    auto bend_once = [&] {
+      if (!bending_taken.exchange(true)) build_bending(s, g);
+    };
+    auto stretch_once = [&] {
+      if (!stretch_taken.exchange(true)) stretch();
     };
     parallel::for_each(2, [&](int task) {
       if (task == 0) {
@@ -1039,14 +1040,14 @@ void rebuild(SolverArrays& s, const Garment& g) {
       } else {
         reset_state();
         // Task 0 is claimed first: it runs on another thread, or ran to its end on this one.
+        if (neighboured.load(std::memory_order_acquire) == kPending) bend_once();
         int state;
-        while ((state = neighboured.load(std::memory_order_acquire)) == kPending)
-          if (!take_one_left()) std::this_thread::yield();
+        while ((state = neighboured.load(std::memory_order_acquire)) == kPending) std::this_thread::yield();
         if (state != kDone) return;
         collision_structures();
       }
-      while (take_one_left()) {
-      }
+      bend_once();
+      stretch_once();
     });
   } else {
     list_edges();

@@ -17,6 +17,7 @@
 #include <memory>
 #include <queue>
 #include <random>
+#include <set>
 
 using namespace kiji;
 
@@ -159,6 +160,51 @@ void expect_same_arrays(const SolverArrays& a, const SolverArrays& b) {
   EXPECT_EQ(a.excl_cluster, b.excl_cluster);
 }
 }  // namespace
+
+TEST(SelfCollision, AVertexIsNeverPairedWithTheTrianglesAtItOrItsNeighboursEvenBesideAFanOfMany) {
+  // Self-collision skips, for each vertex, the triangles with a corner at it or at a neighbour
+  // (they touch it at rest). Here the centre of a fan of 120 triangles is every rim vertex's
+  // neighbour: each rim vertex skips them all. The lists are checked against those triangles
+  // counted one by one, in the first build and in a rebuild after the garment changed.
+  Mesh mesh;
+  const int spokes = 120;
+  const Vertex centre = mesh.add_vertex(Point3(0, 1, 0));
+  std::vector<Vertex> rim;
+  for (int k = 0; k < spokes; ++k) {
+    const double a = 2 * M_PI * k / spokes;
+    rim.push_back(mesh.add_vertex(Point3(0.5 * std::cos(a), 1, 0.5 * std::sin(a))));
+  }
+  for (int k = 0; k < spokes; ++k) ASSERT_NE(mesh.add_face(centre, rim[(k + 1) % spokes], rim[k]), Mesh::null_face());
+  Garment g(mesh);
+  SolverArrays s;
+  auto check = [&] {
+    std::vector<int> slot(s.tris.size());
+    for (std::size_t q = 0; q < s.tcl_items.size(); ++q) slot[s.tcl_items[q]] = static_cast<int>(q);
+    ASSERT_EQ(s.excl_begin.size(), s.vcl_items.size() + 1);
+    for (std::size_t p = 0; p < s.vcl_items.size(); ++p) {
+      const int v = s.vcl_items[p];
+      std::set<int> near{v};
+      for (int k = s.nbr_begin[v]; k < s.nbr_begin[v + 1]; ++k) near.insert(s.nbr[k]);
+      std::map<int, unsigned> expected;  // cluster -> mask
+      for (std::size_t t = 0; t < s.tris.size(); ++t)
+        if (near.count(s.tris[t][0]) || near.count(s.tris[t][1]) || near.count(s.tris[t][2]))
+          expected[slot[t] / SolverArrays::kTriCluster] |= 1u << (slot[t] % SolverArrays::kTriCluster);
+      std::map<int, unsigned> listed;
+      for (int k = s.excl_begin[p]; k < s.excl_begin[p + 1]; ++k) {
+        EXPECT_TRUE(k == s.excl_begin[p] || s.excl_cluster[k - 1] < s.excl_cluster[k]) << "in cluster order";
+        listed[s.excl_cluster[k]] = s.excl_mask[k];
+      }
+      EXPECT_EQ(listed, expected) << "vertex " << v;
+    }
+  };
+  solver_detail::rebuild(s, g);
+  ASSERT_EQ(s.tris.size(), std::size_t(spokes));
+  check();
+  solver_detail::write_step_record(s, g);
+  g.set_position(rim[0], Vec3(0.5, 1.1, 0));
+  solver_detail::rebuild(s, g);  // a rebuild after the first (the edit's path), the same lists
+  check();
+}
 
 TEST(Xpbd, ARebuildAfterACutSearchesNearItAndAgreesWithOneFromScratch) {
   // After an edit the solver searches for its long-range limits again only near it; a peer that

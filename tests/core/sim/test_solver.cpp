@@ -571,15 +571,24 @@ TEST(Xpbd, ClothFallsToTheFloorAtTheBodysFeetAndRestsOnIt) {
 }
 
 namespace {
+// A 1 m cloth of n x n vertices lying flat on a floor, and a solver with `params` over the floor.
+struct ClothOnFloor {
+  const Body floor = test::make_floor();
+  Garment g;
+  Solver solver;
+  ClothOnFloor(int n, const SolverParams& params) : g(make_rectangle(1.0, 1.0, n, n)), solver(params) {
+    lay_flat(g, Vec3(0, g.material().thickness, 0));
+    solver.set_body(&floor);
+  }
+};
+
 // A 1 m cloth of 65 x 65 vertices (7.5 mg each) on a floor, its corner lifted 0.3 m in half a
 // second by a hand of 50 N/m and held there half a second. Returns the largest edge strain at the
 // end, and where the corner ended.
 std::pair<double, Vec3> lift_a_corner(bool firm) {
-  const Body floor = test::make_floor();
-  Garment g = make_rectangle(1.0, 1.0, 65, 65);
-  lay_flat(g, Vec3(0, g.material().thickness, 0));
-  Solver solver;
-  solver.set_body(&floor);
+  ClothOnFloor on_floor(65, SolverParams{});
+  Garment& g = on_floor.g;
+  Solver& solver = on_floor.solver;
   const Vertex corner(0);
   const Vec3 start = g.position(corner);
   const int hand = solver.add_attachment(corner, start, 50.0, firm);
@@ -612,14 +621,12 @@ TEST(Xpbd, TheStepReportCountsTheEdgesTheStrainLimitHeld) {
     std::size_t at_rest = 0, lifting = 0;
     double strain = 0;
   };
-  const Body floor = test::make_floor();
   auto lift = [&](double limit) {
-    Garment g = make_rectangle(1.0, 1.0, 33, 33);
-    lay_flat(g, Vec3(0, g.material().thickness, 0));
     SolverParams p;
     p.strain_limit = limit;
-    Solver solver(p);
-    solver.set_body(&floor);
+    ClothOnFloor on_floor(33, p);
+    Garment& g = on_floor.g;
+    Solver& solver = on_floor.solver;
     Counted c;
     for (int f = 0; f < 5; ++f) {
       solver.step(g, 1.0 / 60);
@@ -1129,13 +1136,11 @@ struct Drag {
   int held_substeps = 0, free_substeps = 0;
 };
 Drag drag_a_corner(int held_substeps, bool firm) {
-  const Body floor = test::make_floor();
-  Garment g = make_rectangle(1.0, 1.0, 65, 65);
-  lay_flat(g, Vec3(0, g.material().thickness, 0));
   SolverParams p;
   p.held_substeps = held_substeps;
-  Solver solver(p);
-  solver.set_body(&floor);
+  ClothOnFloor on_floor(65, p);
+  Garment& g = on_floor.g;
+  Solver& solver = on_floor.solver;
   solver.step(g, 1.0 / 60);
   const Vec3 corner = g.position(Vertex(0));
   std::vector<std::pair<int, Vec3>> hands;
